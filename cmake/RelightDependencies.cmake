@@ -1,0 +1,27 @@
+# All third-party dependencies, found once. Every one is a Debian 12 package
+# (see tools/setup_debian.sh for the list).
+find_package(Threads REQUIRED)
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(yaml-cpp REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(spdlog REQUIRED)
+find_package(fmt REQUIRED)
+find_package(OpenSSL REQUIRED)
+find_package(TBB REQUIRED)
+find_package(OpenImageIO REQUIRED)
+find_package(embree 3 REQUIRED)
+find_package(Ceres REQUIRED)
+find_package(CGAL REQUIRED)
+find_package(OpenCV REQUIRED COMPONENTS core imgproc calib3d)
+if(RELIGHT_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+endif()
+if(RELIGHT_BUILD_BENCHMARKS)
+  find_package(benchmark REQUIRED)
+endif()
+
+# yaml-cpp 0.7 on Debian exports the target `yaml-cpp` without a namespace.
+if(TARGET yaml-cpp AND NOT TARGET yaml-cpp::yaml-cpp)
+  add_library(yaml-cpp::yaml-cpp ALIAS yaml-cpp)
+endif()

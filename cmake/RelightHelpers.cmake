@@ -1,0 +1,57 @@
+# Helpers that keep every module's CMakeLists.txt to a few lines.
+#
+#   relight_module(NAME core SOURCES a.cc b.cc DEPS ... [PRIVATE_DEPS ...])
+#     A library `relight_<NAME>` (alias relight::<NAME>); include paths are
+#     rooted at modules/, so code includes "core/options.h".
+#   relight_test(NAME core_options_test SOURCES options_test.cc DEPS relight::core [LABELS unit])
+#     A GoogleTest executable in build/bin, registered with CTest.
+#   relight_executable(NAME synthesize SOURCES main.cc DEPS ...)
+#   relight_benchmark(NAME wavelet_benchmark SOURCES bench.cc DEPS ...)
+
+function(relight_module)
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  set(target relight_${ARG_NAME})
+  if(ARG_SOURCES)
+    add_library(${target} STATIC ${ARG_SOURCES})
+    target_include_directories(${target} PUBLIC ${PROJECT_SOURCE_DIR}/modules)
+    target_link_libraries(${target} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  else()
+    add_library(${target} INTERFACE)
+    target_include_directories(${target} INTERFACE ${PROJECT_SOURCE_DIR}/modules)
+    target_link_libraries(${target} INTERFACE ${ARG_DEPS})
+  endif()
+  add_library(relight::${ARG_NAME} ALIAS ${target})
+endfunction()
+
+function(relight_test)
+  if(NOT RELIGHT_BUILD_TESTS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "NAME;TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  add_executable(${ARG_NAME} ${ARG_SOURCES})
+  target_link_libraries(${ARG_NAME} PRIVATE ${ARG_DEPS} relight::testing GTest::gtest GTest::gtest_main)
+  if(NOT ARG_LABELS)
+    set(ARG_LABELS unit)
+  endif()
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 600)
+  endif()
+  add_test(NAME ${ARG_NAME} COMMAND ${ARG_NAME} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
+  set_tests_properties(${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+    ENVIRONMENT "RELIGHT_SOURCE_DIR=${PROJECT_SOURCE_DIR};RELIGHT_BIN_DIR=${CMAKE_RUNTIME_OUTPUT_DIRECTORY};RELIGHT_SHARED_DATA_DIR=${RELIGHT_SHARED_DATA_DIR}")
+endfunction()
+
+function(relight_executable)
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;DEPS" ${ARGN})
+  add_executable(${ARG_NAME} ${ARG_SOURCES})
+  target_link_libraries(${ARG_NAME} PRIVATE ${ARG_DEPS})
+endfunction()
+
+function(relight_benchmark)
+  if(NOT RELIGHT_BUILD_BENCHMARKS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;DEPS" ${ARGN})
+  add_executable(${ARG_NAME} ${ARG_SOURCES})
+  target_link_libraries(${ARG_NAME} PRIVATE ${ARG_DEPS} benchmark::benchmark)
+endfunction()

@@ -1,0 +1,153 @@
+// Basis BRDFs (lobes), materials as non-negative RGB blends of lobes, and the
+// reflectance model file (materials.json, docs/FORMATS.md).
+//
+// Directions are in the local frame of sphere/frame.h (z = surface normal),
+// pointing away from the surface. `Eval` returns the BRDF value in 1/sr
+// *without* the cosine factor. Templated on the scalar type so one
+// implementation serves double, float and ceres::Jet (Mitsuba-style).
+//
+// Lobes (each scaled so that its coefficient is roughly its albedo):
+//  - Lambertian: 1/pi.
+//  - Cook-Torrance: Beckmann D, Cook-Torrance V-cavity G, Schlick F, D G F / (4 cos_i cos_o).
+//  - GGX (Trowbridge-Reitz) with separable Smith G1 and Schlick F, D G F / (4 cos_i cos_o).
+//  - Phong / Lafortune cosine lobe about the mirror direction,
+//    (n+2)/(2 pi) max(0, wi . reflect(wo))^n, i.e. Lafortune with Cxy = -1, Cz = 1
+//    and energy normalisation.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "core/json.h"
+
+namespace relight {
+
+enum class BrdfModel { kLambertian, kCookTorrance, kGgx, kPhong };
+
+// "lambertian", "cook_torrance", "ggx", "phong".
+std::string BrdfModelName(BrdfModel model);
+// Parses the names above; throws UserError listing the allowed names.
+BrdfModel ParseBrdfModel(const std::string& name);
+
+namespace brdf_internal {
+template <typename T>
+T Max0(const T& x) {
+  return x > T(0) ? x : T(0);
+}
+template <typename T>
+T Schlick(const T& f0, const T& cos_theta) {
+  const T m = T(1) - Max0(cos_theta);
+  const T m2 = m * m;
+  return f0 + (T(1) - f0) * m2 * m2 * m;
+}
+}  // namespace brdf_internal
+
+// One basis BRDF.
+struct BrdfLobe {
+  BrdfModel model = BrdfModel::kLambertian;
+  double roughness = 0.3;  // microfacet alpha (Cook-Torrance/Beckmann, GGX); 0 < alpha <= 1
+  double f0 = 0.04;        // Schlick Fresnel reflectance at normal incidence (microfacet lobes)
+  double exponent = 50.0;  // Phong/Lafortune exponent n
+
+  // BRDF value (1/sr, no cosine) for local directions; 0 below the horizon.
+  template <typename T>
+  T Eval(const Eigen::Matrix<T, 3, 1>& wi, const Eigen::Matrix<T, 3, 1>& wo) const;
+
+  // Importance-samples an incident direction for outgoing `wo` (local, z>0)
+  // from uniform numbers u1, u2 in [0,1). Returns the direction (may lie below
+  // the horizon, where Eval is 0) and its solid-angle density in `pdf`.
+  Eigen::Vector3d Sample(const Eigen::Vector3d& wo, double u1, double u2, double* pdf) const;
+  // Solid-angle density of Sample() producing `wi`.
+  double Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
+  // Short description, e.g. "ggx(alpha=0.2, f0=0.04)".
+  std::string Describe() const;
+  // Throws UserError when a parameter is out of its valid range.
+  void Check() const;
+};
+
+// A material: RGB coefficient of each basis lobe (non-negative).
+struct Material {
+  std::string name;
+  std::vector<Eigen::Vector3d> coefficients;  // one RGB triple per basis lobe
+};
+
+// Basis lobes and materials of a scene; a vertex's BRDF is
+// sum_m w_m sum_b coefficients[m][b] * basis[b] with per-vertex weights w_m >= 0.
+struct ReflectanceModel {
+  std::vector<BrdfLobe> basis;
+  std::vector<Material> materials;
+
+  // RGB BRDF value of a weight vector (one weight per material).
+  Eigen::Vector3d Eval(const std::vector<double>& material_weights, const Eigen::Vector3d& wi,
+                       const Eigen::Vector3d& wo) const;
+  // Diffuse (Lambertian-lobe) RGB albedo of a weight vector.
+  Eigen::Vector3d DiffuseAlbedo(const std::vector<double>& material_weights) const;
+};
+
+Json BrdfLobeToJson(const BrdfLobe& lobe);
+BrdfLobe BrdfLobeFromJson(const Json& j);
+Json ReflectanceModelToJson(const ReflectanceModel& model);
+// Throws UserError naming `source` on missing fields or bad values.
+ReflectanceModel ReflectanceModelFromJson(const Json& j, const std::string& source);
+ReflectanceModel ReadReflectanceModel(const std::string& path);
+void WriteReflectanceModel(const std::string& path, const ReflectanceModel& model);
+
+// ---------------------------------------------------------------------------
+
+template <typename T>
+T BrdfLobe::Eval(const Eigen::Matrix<T, 3, 1>& wi, const Eigen::Matrix<T, 3, 1>& wo) const {
+  using std::exp;
+  using std::pow;
+  using std::sqrt;
+  using brdf_internal::Max0;
+  const T cos_i = wi.z();
+  const T cos_o = wo.z();
+  if (!(cos_i > T(0)) || !(cos_o > T(0))) return T(0);
+  switch (model) {
+    case BrdfModel::kLambertian:
+      return T(1.0 / M_PI);
+    case BrdfModel::kPhong: {
+      const Eigen::Matrix<T, 3, 1> mirror(-wo.x(), -wo.y(), wo.z());
+      const T c = Max0(wi.dot(mirror));
+      if (!(c > T(0))) return T(0);
+      return T((exponent + 2.0) / (2.0 * M_PI)) * pow(c, T(exponent));
+    }
+    case BrdfModel::kCookTorrance:
+    case BrdfModel::kGgx: {
+      Eigen::Matrix<T, 3, 1> h = wi + wo;
+      const T h_norm = sqrt(h.squaredNorm());
+      if (!(h_norm > T(1e-12))) return T(0);
+      h /= h_norm;
+      const T cos_h = h.z();
+      const T cos_h2 = cos_h * cos_h;
+      const T tan_h2 = (T(1) - cos_h2) / cos_h2;
+      const T a2 = T(roughness * roughness);
+      const T o_dot_h = Max0(wo.dot(h));
+      T d, g;
+      if (model == BrdfModel::kCookTorrance) {
+        d = exp(-tan_h2 / a2) / (T(M_PI) * a2 * cos_h2 * cos_h2);
+        // Cook-Torrance V-cavity masking-shadowing.
+        const T gi = T(2) * cos_h * cos_i / o_dot_h;
+        const T go = T(2) * cos_h * cos_o / o_dot_h;
+        g = T(1);
+        if (gi < g) g = gi;
+        if (go < g) g = go;
+      } else {
+        const T denom = a2 + tan_h2;
+        d = a2 / (T(M_PI) * cos_h2 * cos_h2 * denom * denom);
+        auto g1 = [&](const T& c) {
+          const T tan2 = (T(1) - c * c) / (c * c);
+          return T(2) / (T(1) + sqrt(T(1) + a2 * tan2));
+        };
+        g = g1(cos_i) * g1(cos_o);
+      }
+      const T f = brdf_internal::Schlick(T(f0), o_dot_h);
+      return d * g * f / (T(4) * cos_i * cos_o);
+    }
+  }
+  return T(0);
+}
+
+}  // namespace relight

@@ -1,0 +1,19 @@
+// JSON (nlohmann/json) with the project's file conventions.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace relight {
+
+using Json = nlohmann::json;
+// Keys in insertion order, for human-facing summaries.
+using OrderedJson = nlohmann::ordered_json;
+
+// Reads a JSON file; throws UserError naming the file on a missing file or a parse error.
+Json ReadJsonFile(const std::string& path);
+// Writes pretty-printed JSON atomically.
+void WriteJsonAtomic(const std::string& path, const Json& value);
+void WriteJsonAtomic(const std::string& path, const OrderedJson& value);
+
+}  // namespace relight

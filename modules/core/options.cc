@@ -1,0 +1,457 @@
+#include "core/options.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace relight {
+namespace {
+
+namespace fs = std::filesystem;
+
+template <typename... Ts>
+struct Overloaded : Ts... {
+  using Ts::operator()...;
+};
+template <typename... Ts>
+Overloaded(Ts...) -> Overloaded<Ts...>;
+
+std::string JoinStrings(const std::vector<std::string>& items, const std::string& sep) {
+  std::string out;
+  for (size_t i = 0; i < items.size(); ++i) {
+    if (i) out += sep;
+    out += items[i];
+  }
+  return out;
+}
+
+std::string Trim(const std::string& s) {
+  size_t b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return "";
+  size_t e = s.find_last_not_of(" \t\r\n");
+  return s.substr(b, e - b + 1);
+}
+
+std::vector<std::string> SplitList(std::string text) {
+  text = Trim(text);
+  if (!text.empty() && text.front() == '[' && text.back() == ']') text = text.substr(1, text.size() - 2);
+  std::vector<std::string> out;
+  if (Trim(text).empty()) return out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) out.push_back(Trim(item));
+  return out;
+}
+
+bool ParseBool(const std::string& text, bool* value) {
+  std::string t = text;
+  std::transform(t.begin(), t.end(), t.begin(), ::tolower);
+  if (t == "true" || t == "yes" || t == "on" || t == "1") {
+    *value = true;
+    return true;
+  }
+  if (t == "false" || t == "no" || t == "off" || t == "0") {
+    *value = false;
+    return true;
+  }
+  return false;
+}
+
+bool ParseInt(const std::string& text, int* value) {
+  std::string t = Trim(text);
+  if (t.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  long v = std::strtol(t.c_str(), &end, 10);
+  if (errno != 0 || *end != '\0' || v < INT32_MIN || v > INT32_MAX) return false;
+  *value = static_cast<int>(v);
+  return true;
+}
+
+bool ParseDouble(const std::string& text, double* value) {
+  std::string t = Trim(text);
+  if (t.empty()) return false;
+  std::istringstream ss(t);
+  ss.imbue(std::locale::classic());
+  double v;
+  ss >> v;
+  if (ss.fail() || !ss.eof() || !std::isfinite(v)) return false;
+  *value = v;
+  return true;
+}
+
+std::string ResolvePath(const std::string& path, const std::string& base_dir) {
+  if (path.empty() || base_dir.empty()) return path;
+  fs::path p(path);
+  if (p.is_absolute()) return p.lexically_normal().string();
+  return (fs::path(base_dir) / p).lexically_normal().string();
+}
+
+std::string LineOf(const YAML::Node& node, const std::string& file) {
+  const YAML::Mark mark = node.Mark();
+  if (mark.line < 0) return file;
+  return file + ":" + std::to_string(mark.line + 1);
+}
+
+}  // namespace
+
+std::string CanonicalDouble(double v) {
+  if (v == 0.0) return "0";  // fold -0
+  // Shortest text that round-trips exactly, locale independent (C++17 to_chars).
+  char buf[64];
+  const auto result = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, result.ptr);
+}
+
+OptionField::OptionField(std::string name, Target target, std::string doc)
+    : name_(std::move(name)), target_(target), doc_(std::move(doc)) {
+  default_text_ = ValueText();
+}
+
+OptionField& OptionField::Min(double v) {
+  min_ = v;
+  return *this;
+}
+OptionField& OptionField::Max(double v) {
+  max_ = v;
+  return *this;
+}
+OptionField& OptionField::Size(int n) {
+  size_ = n;
+  return *this;
+}
+OptionField& OptionField::Choices(std::vector<std::string> allowed) {
+  choices_ = std::move(allowed);
+  return *this;
+}
+OptionField& OptionField::InputFile() {
+  path_role_ = PathRole::kInputFile;
+  return *this;
+}
+OptionField& OptionField::InputDir() {
+  path_role_ = PathRole::kInputDir;
+  return *this;
+}
+OptionField& OptionField::InputAny() {
+  path_role_ = PathRole::kInputAny;
+  return *this;
+}
+OptionField& OptionField::OutputPath() {
+  path_role_ = PathRole::kOutput;
+  return *this;
+}
+OptionField& OptionField::NotInKey() {
+  in_key_ = false;
+  return *this;
+}
+
+bool OptionField::is_input_path() const {
+  return path_role_ == PathRole::kInputFile || path_role_ == PathRole::kInputDir ||
+         path_role_ == PathRole::kInputAny;
+}
+
+std::string OptionField::TypeName() const {
+  return std::visit(Overloaded{[](bool*) { return std::string("bool"); },
+                               [](int*) { return std::string("int"); },
+                               [](double*) { return std::string("float"); },
+                               [this](std::string*) {
+                                 return std::string(path_role_ == PathRole::kNone ? "string" : "path");
+                               },
+                               [](std::vector<double>*) { return std::string("list of float"); },
+                               [](std::vector<int>*) { return std::string("list of int"); },
+                               [](std::vector<std::string>*) { return std::string("list of string"); }},
+                    target_);
+}
+
+std::string OptionField::ConstraintText() const {
+  std::vector<std::string> parts;
+  if (min_ && max_) {
+    parts.push_back("in [" + CanonicalDouble(*min_) + ", " + CanonicalDouble(*max_) + "]");
+  } else if (min_) {
+    parts.push_back(">= " + CanonicalDouble(*min_));
+  } else if (max_) {
+    parts.push_back("<= " + CanonicalDouble(*max_));
+  }
+  if (!choices_.empty()) parts.push_back("one of: " + JoinStrings(choices_, ", "));
+  if (size_) parts.push_back(std::to_string(*size_) + " entries");
+  switch (path_role_) {
+    case PathRole::kInputFile: parts.push_back("existing file"); break;
+    case PathRole::kInputDir: parts.push_back("existing folder"); break;
+    case PathRole::kInputAny: parts.push_back("existing file or folder"); break;
+    default: break;
+  }
+  return JoinStrings(parts, "; ");
+}
+
+std::string OptionField::ValueText() const {
+  return std::visit(
+      Overloaded{[](bool* v) { return std::string(*v ? "true" : "false"); },
+                 [](int* v) { return std::to_string(*v); },
+                 [](double* v) { return CanonicalDouble(*v); },
+                 [](std::string* v) { return *v; },
+                 [](std::vector<double>* v) {
+                   std::vector<std::string> items;
+                   for (double x : *v) items.push_back(CanonicalDouble(x));
+                   return "[" + JoinStrings(items, ", ") + "]";
+                 },
+                 [](std::vector<int>* v) {
+                   std::vector<std::string> items;
+                   for (int x : *v) items.push_back(std::to_string(x));
+                   return "[" + JoinStrings(items, ", ") + "]";
+                 },
+                 [](std::vector<std::string>* v) { return "[" + JoinStrings(*v, ", ") + "]"; }},
+      target_);
+}
+
+std::string OptionField::StringValue() const {
+  if (auto* s = std::get_if<std::string*>(&target_)) return **s;
+  return "";
+}
+
+void OptionField::SetStringValue(const std::string& value) {
+  if (auto* s = std::get_if<std::string*>(&target_)) **s = value;
+}
+
+void OptionField::SetFromText(const std::string& text, const std::string& where) {
+  const std::string key = name_;
+  auto fail = [&](const std::string& expected) {
+    RELIGHT_USER_ERROR() << where << ": option '" << key << "' expects " << expected << ", got '" << text
+                         << "'";
+  };
+  std::visit(Overloaded{[&](bool* v) {
+                          if (!ParseBool(text, v)) fail("true or false");
+                        },
+                        [&](int* v) {
+                          if (!ParseInt(text, v)) fail("an integer");
+                        },
+                        [&](double* v) {
+                          if (!ParseDouble(text, v)) fail("a number");
+                        },
+                        [&](std::string* v) { *v = text; },
+                        [&](std::vector<double>* v) {
+                          v->clear();
+                          for (const auto& item : SplitList(text)) {
+                            double x;
+                            if (!ParseDouble(item, &x)) fail("a list of numbers");
+                            v->push_back(x);
+                          }
+                        },
+                        [&](std::vector<int>* v) {
+                          v->clear();
+                          for (const auto& item : SplitList(text)) {
+                            int x;
+                            if (!ParseInt(item, &x)) fail("a list of integers");
+                            v->push_back(x);
+                          }
+                        },
+                        [&](std::vector<std::string>* v) { *v = SplitList(text); }},
+             target_);
+  Validate(where);
+}
+
+void OptionField::SetFromYaml(const YAML::Node& node, const std::string& where) {
+  const bool is_list = std::holds_alternative<std::vector<double>*>(target_) ||
+                       std::holds_alternative<std::vector<int>*>(target_) ||
+                       std::holds_alternative<std::vector<std::string>*>(target_);
+  if (node.IsSequence()) {
+    if (!is_list) {
+      RELIGHT_USER_ERROR() << where << ": option '" << name_ << "' expects a single " << TypeName()
+                           << ", got a list";
+    }
+    std::vector<std::string> items;
+    for (const auto& item : node) {
+      if (!item.IsScalar()) {
+        RELIGHT_USER_ERROR() << where << ": option '" << name_ << "' expects a " << TypeName();
+      }
+      items.push_back(item.Scalar());
+    }
+    if (std::holds_alternative<std::vector<std::string>*>(target_)) {
+      *std::get<std::vector<std::string>*>(target_) = items;
+      Validate(where);
+    } else {
+      SetFromText(JoinStrings(items, ","), where);
+    }
+    return;
+  }
+  if (node.IsNull()) {
+    if (std::holds_alternative<std::string*>(target_)) {
+      *std::get<std::string*>(target_) = "";
+      return;
+    }
+    RELIGHT_USER_ERROR() << where << ": option '" << name_ << "' has no value; expected a " << TypeName();
+  }
+  if (!node.IsScalar()) {
+    RELIGHT_USER_ERROR() << where << ": option '" << name_ << "' expects a " << TypeName()
+                         << ", got a mapping";
+  }
+  SetFromText(node.Scalar(), where);
+}
+
+void OptionField::ToYaml(YAML::Node* node) const {
+  std::visit(Overloaded{[&](bool* v) { (*node)[name_] = *v; }, [&](int* v) { (*node)[name_] = *v; },
+                        [&](double* v) { (*node)[name_] = CanonicalDouble(*v); },
+                        [&](std::string* v) { (*node)[name_] = *v; },
+                        [&](std::vector<double>* v) {
+                          YAML::Node seq(YAML::NodeType::Sequence);
+                          for (double x : *v) seq.push_back(CanonicalDouble(x));
+                          seq.SetStyle(YAML::EmitterStyle::Flow);
+                          (*node)[name_] = seq;
+                        },
+                        [&](std::vector<int>* v) {
+                          YAML::Node seq(YAML::NodeType::Sequence);
+                          for (int x : *v) seq.push_back(x);
+                          seq.SetStyle(YAML::EmitterStyle::Flow);
+                          (*node)[name_] = seq;
+                        },
+                        [&](std::vector<std::string>* v) {
+                          YAML::Node seq(YAML::NodeType::Sequence);
+                          for (const auto& x : *v) seq.push_back(x);
+                          seq.SetStyle(YAML::EmitterStyle::Flow);
+                          (*node)[name_] = seq;
+                        }},
+             target_);
+}
+
+void OptionField::Validate(const std::string& where) const {
+  auto check_number = [&](double x) {
+    if ((min_ && x < *min_) || (max_ && x > *max_)) {
+      RELIGHT_USER_ERROR() << where << ": option '" << name_ << "' = " << CanonicalDouble(x)
+                           << " is out of range; allowed: " << ConstraintText();
+    }
+  };
+  auto check_choice = [&](const std::string& s) {
+    if (!choices_.empty() && std::find(choices_.begin(), choices_.end(), s) == choices_.end()) {
+      RELIGHT_USER_ERROR() << where << ": option '" << name_ << "' = '" << s
+                           << "' is not allowed; allowed values: " << JoinStrings(choices_, ", ");
+    }
+  };
+  auto check_size = [&](size_t n) {
+    if (size_ && static_cast<int>(n) != *size_) {
+      RELIGHT_USER_ERROR() << where << ": option '" << name_ << "' needs exactly " << *size_
+                           << " entries, got " << n;
+    }
+  };
+  std::visit(Overloaded{[&](bool*) {}, [&](int* v) { check_number(*v); },
+                        [&](double* v) { check_number(*v); }, [&](std::string* v) { check_choice(*v); },
+                        [&](std::vector<double>* v) {
+                          check_size(v->size());
+                          for (double x : *v) check_number(x);
+                        },
+                        [&](std::vector<int>* v) {
+                          check_size(v->size());
+                          for (int x : *v) check_number(x);
+                        },
+                        [&](std::vector<std::string>* v) {
+                          check_size(v->size());
+                          for (const auto& x : *v) check_choice(x);
+                        }},
+             target_);
+}
+
+OptionField* OptionTable::Find(const std::string& name) {
+  for (auto& f : fields_)
+    if (f.name() == name) return &f;
+  return nullptr;
+}
+
+const OptionField* OptionTable::Find(const std::string& name) const {
+  for (const auto& f : fields_)
+    if (f.name() == name) return &f;
+  return nullptr;
+}
+
+void OptionTable::ApplyYaml(const YAML::Node& mapping, const std::string& file, const std::string& base_dir) {
+  if (mapping.IsNull()) return;
+  if (!mapping.IsMap()) {
+    RELIGHT_USER_ERROR() << LineOf(mapping, file) << ": section '" << section_
+                         << "' must be a mapping of option: value";
+  }
+  for (const auto& kv : mapping) ApplyEntry(kv.first.Scalar(), LineOf(kv.first, file), kv.second, file, base_dir);
+}
+
+void OptionTable::ApplyEntry(const std::string& name, const std::string& where, const YAML::Node& value,
+                             const std::string& file, const std::string& base_dir) {
+  OptionField* field = Find(name);
+  if (field == nullptr) {
+    std::vector<std::string> names;
+    for (const auto& f : fields_) names.push_back(f.name());
+    RELIGHT_USER_ERROR() << where << ": unknown option '" << section_ << "." << name
+                         << "'; allowed options of '" << section_ << "': " << JoinStrings(names, ", ");
+  }
+  field->SetFromYaml(value, LineOf(value, file));
+  if (field->path_role() != PathRole::kNone) {
+    field->SetStringValue(ResolvePath(field->StringValue(), base_dir));
+  }
+}
+
+void OptionTable::ApplyText(const std::string& name, const std::string& value, const std::string& where) {
+  OptionField* field = Find(name);
+  if (field == nullptr) {
+    std::vector<std::string> names;
+    for (const auto& f : fields_) names.push_back(f.name());
+    RELIGHT_USER_ERROR() << where << ": unknown option '" << section_ << "." << name
+                         << "'; allowed options of '" << section_ << "': " << JoinStrings(names, ", ");
+  }
+  field->SetFromText(value, where);
+  if (field->path_role() != PathRole::kNone) {
+    field->SetStringValue(ResolvePath(field->StringValue(), fs::current_path().string()));
+  }
+}
+
+void OptionTable::Validate(const std::string& where) const {
+  for (const auto& f : fields_) f.Validate(where);
+}
+
+std::string OptionTable::CanonicalText(const std::function<std::string(const std::string&)>& digest) const {
+  std::map<std::string, std::string> lines;
+  for (const auto& f : fields_) {
+    if (!f.in_key() || f.path_role() == PathRole::kOutput) continue;
+    std::string value = f.ValueText();
+    if (f.is_input_path()) value = f.StringValue().empty() ? "<none>" : "sha256:" + digest(f.StringValue());
+    lines[section_ + "." + f.name()] = value;
+  }
+  std::string out;
+  for (const auto& [k, v] : lines) out += k + "=" + v + "\n";
+  return out;
+}
+
+YAML::Node OptionTable::ToYaml() const {
+  YAML::Node node(YAML::NodeType::Map);
+  for (const auto& f : fields_) f.ToYaml(&node);
+  return node;
+}
+
+std::string OptionTable::MarkdownReference() const {
+  std::ostringstream out;
+  out << "| key | type | default | allowed | description |\n|---|---|---|---|---|\n";
+  for (const auto& f : fields_) {
+    std::string def = f.default_text().empty() ? "\"\"" : f.default_text();
+    out << "| `" << section_ << "." << f.name() << "` | " << f.TypeName() << " | `" << def << "` | "
+        << f.ConstraintText() << (f.in_key() ? "" : (f.ConstraintText().empty() ? "" : "; ")) 
+        << (f.in_key() ? "" : "not in cache key") << " | " << f.doc() << " |\n";
+  }
+  return out.str();
+}
+
+std::string OptionTable::HelpText() const {
+  std::ostringstream out;
+  out << "Options (config section '" << section_ << "', or --set " << section_ << ".NAME=VALUE):\n";
+  for (const auto& f : fields_) {
+    std::string def = f.default_text().empty() ? "\"\"" : f.default_text();
+    out << "  " << section_ << "." << f.name() << " (" << f.TypeName() << ", default " << def << ")";
+    const std::string c = f.ConstraintText();
+    if (!c.empty()) out << " [" << c << "]";
+    out << "\n      " << f.doc() << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace relight

@@ -1,0 +1,163 @@
+// Typed, self-describing stage options.
+//
+// Every stage has one `XxxOptions` struct whose member initializers are the
+// only defaults. The struct describes its fields once, in `Declare()`:
+//
+//   struct SynthesizeOptions {
+//     int num_photos = 16;         // Photos to render.
+//     std::string mesh;            // Mesh file (OBJ/PLY/OFF); empty: built-in shape.
+//     void Declare(OptionTable* t) {
+//       t->Add("num_photos", &num_photos, "Photos to render.").Min(1);
+//       t->Add("mesh", &mesh, "Mesh file (OBJ/PLY/OFF).").InputFile();
+//     }
+//     void Check() const {}        // cross-field constraints, throws UserError
+//   };
+//
+// From that one description the project derives: YAML parsing with file:line
+// errors, `--set key=value` overrides, `--help` text, the config reference in
+// docs, the canonical serialization that enters the cache key, and the fully
+// resolved config written beside each stage's outputs.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace YAML {
+class Node;
+}
+
+namespace relight {
+
+// What a string option holds; input paths enter cache keys by content.
+enum class PathRole {
+  kNone,       // a plain string
+  kInputFile,  // an existing file; its content digest enters the cache key
+  kInputDir,   // an existing folder; the digest of all its files enters the key
+  kInputAny,   // an existing file or folder
+  kOutput,     // a path the stage writes; never part of the key
+};
+
+// One option: a name, a typed pointer into the options struct, a doc line and constraints.
+class OptionField {
+ public:
+  using Target = std::variant<bool*, int*, double*, std::string*, std::vector<double>*,
+                              std::vector<int>*, std::vector<std::string>*>;
+
+  OptionField(std::string name, Target target, std::string doc);
+
+  // Constraints and roles (chainable).
+  OptionField& Min(double v);
+  OptionField& Max(double v);
+  OptionField& Range(double lo, double hi) { return Min(lo).Max(hi); }
+  OptionField& Choices(std::vector<std::string> allowed);
+  OptionField& InputFile();
+  OptionField& InputDir();
+  OptionField& InputAny();
+  OptionField& OutputPath();
+  // The option does not change results (thread counts, log levels): kept out of the cache key.
+  OptionField& NotInKey();
+  // A list option must have exactly `n` entries.
+  OptionField& Size(int n);
+
+  const std::string& name() const { return name_; }
+  const std::string& doc() const { return doc_; }
+  PathRole path_role() const { return path_role_; }
+  bool in_key() const { return in_key_; }
+  bool is_input_path() const;
+  const std::vector<std::string>& choices() const { return choices_; }
+  // "int", "float", "bool", "string", "path", "list of float", ...
+  std::string TypeName() const;
+  // Human readable constraints: "≥ 1", "one of: a, b", "" when none.
+  std::string ConstraintText() const;
+  // The value at declaration time (the default), canonical text.
+  const std::string& default_text() const { return default_text_; }
+  // The current value, canonical text (floats with %.17g, lists as [a, b]).
+  std::string ValueText() const;
+  // String value of a path/string option (empty for other types).
+  std::string StringValue() const;
+  void SetStringValue(const std::string& value);
+
+  // Set from a YAML scalar or sequence; `where` is "file:line" for messages.
+  void SetFromYaml(const YAML::Node& node, const std::string& where);
+  // Set from command-line text ("16", "0.5", "true", "a,b,c").
+  void SetFromText(const std::string& text, const std::string& where);
+  // Emit the current value into a YAML node.
+  void ToYaml(YAML::Node* node) const;
+
+  // Throws UserError naming `where` when the value violates a constraint.
+  void Validate(const std::string& where) const;
+
+ private:
+  std::string name_;
+  Target target_;
+  std::string doc_;
+  std::optional<double> min_;
+  std::optional<double> max_;
+  std::optional<int> size_;
+  std::vector<std::string> choices_;
+  PathRole path_role_ = PathRole::kNone;
+  bool in_key_ = true;
+  std::string default_text_;
+};
+
+// All options of one section (a stage, or `pipeline`).
+class OptionTable {
+ public:
+  explicit OptionTable(std::string section) : section_(std::move(section)) {}
+
+  template <typename T>
+  OptionField& Add(const std::string& name, T* target, const std::string& doc) {
+    fields_.emplace_back(name, OptionField::Target(target), doc);
+    return fields_.back();
+  }
+
+  const std::string& section() const { return section_; }
+  std::vector<OptionField>& fields() { return fields_; }
+  const std::vector<OptionField>& fields() const { return fields_; }
+  OptionField* Find(const std::string& name);
+  const OptionField* Find(const std::string& name) const;
+
+  // Applies a YAML mapping of this section. Unknown keys and bad values throw
+  // UserError naming `file`, the line and the allowed keys/values. Relative
+  // paths are resolved against `base_dir` (the config file's folder).
+  void ApplyYaml(const YAML::Node& mapping, const std::string& file, const std::string& base_dir);
+  // Applies one `name: value` entry; `key_where` is "file:line" of the key, the
+  // value node keeps its own line mark.
+  void ApplyEntry(const std::string& name, const std::string& key_where, const YAML::Node& value,
+                  const std::string& file, const std::string& base_dir);
+  // Applies one `name=value` override (from --set); relative paths resolve against the CWD.
+  void ApplyText(const std::string& name, const std::string& value, const std::string& where);
+  // Validates every field's constraints.
+  void Validate(const std::string& where) const;
+
+  // Canonical text of the result-affecting options: one sorted line per
+  // field, `section.name=value`. Input paths are replaced by `digest(path)`.
+  std::string CanonicalText(const std::function<std::string(const std::string&)>& digest) const;
+  // The resolved values as a YAML mapping node (all fields, including NotInKey ones).
+  YAML::Node ToYaml() const;
+  // Markdown table of the options: key, type, default, constraints, doc.
+  std::string MarkdownReference() const;
+  // Plain text for --help.
+  std::string HelpText() const;
+
+ private:
+  std::string section_;
+  // A deque would keep references stable; fields are only added in Declare(), before use.
+  std::vector<OptionField> fields_;
+};
+
+// Builds the option table of an options struct (calls `Declare`).
+template <typename Options>
+OptionTable MakeOptionTable(const std::string& section, Options* options) {
+  OptionTable table(section);
+  options->Declare(&table);
+  return table;
+}
+
+// Formats a double canonically (round-trip exact, locale independent).
+std::string CanonicalDouble(double v);
+
+}  // namespace relight

@@ -1,0 +1,377 @@
+#include "ingest/ingest.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <mutex>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/hash.h"
+#include "core/json.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "core/timer.h"
+
+namespace relight {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Decoded photo before the duplicate and grayscale checks.
+struct Candidate {
+  IngestedPhoto photo;
+  Image image;                   // upright, downscaled
+  std::vector<float> thumbnail;  // 32x32 luminance, zero mean, unit norm
+  double mean_chroma = 0;
+  bool ok = false;
+  std::string reason;
+};
+
+std::vector<float> Thumbnail(const Image& image) {
+  const Image small = ResizeImage(image, 32, 32);
+  std::vector<float> t(32 * 32);
+  for (int i = 0; i < 32 * 32; ++i) {
+    const float* p = &small.pixels[size_t(i) * small.channels];
+    t[i] = small.channels >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
+  }
+  double mean = 0;
+  for (float v : t) mean += v;
+  mean /= t.size();
+  double norm = 0;
+  for (float& v : t) {
+    v -= static_cast<float>(mean);
+    norm += double(v) * v;
+  }
+  norm = std::sqrt(norm);
+  if (norm > 1e-9)
+    for (float& v : t) v /= static_cast<float>(norm);
+  return t;
+}
+
+double MeanChroma(const Image& image) {
+  if (image.channels < 3) return 0.0;
+  const int step = std::max(1, static_cast<int>(std::sqrt(double(image.width) * image.height / 65536.0)));
+  double sum = 0;
+  long count = 0;
+  for (int y = 0; y < image.height; y += step) {
+    for (int x = 0; x < image.width; x += step) {
+      const float r = image.at(x, y, 0), g = image.at(x, y, 1), b = image.at(x, y, 2);
+      double hi = std::max({r, g, b}), lo = std::min({r, g, b});
+      if (hi > 1.0) {  // float photos: judge chroma relative to brightness
+        lo /= hi;
+        hi = 1.0;
+      }
+      sum += hi - lo;
+      ++count;
+    }
+  }
+  return count ? sum / count : 0.0;
+}
+
+bool LooksLikeImageFile(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+  static const char* kKnown[] = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".exr", ".hdr", ".bmp", ".ppm", ".pgm",
+                                 ".webp"};
+  return std::any_of(std::begin(kKnown), std::end(kKnown), [&](const char* k) { return ext == k; });
+}
+
+Json OptionalToJson(const std::optional<double>& v) { return v ? Json(*v) : Json(nullptr); }
+std::optional<double> JsonToOptional(const Json& j, const char* key) {
+  if (!j.contains(key) || j.at(key).is_null()) return std::nullopt;
+  return j.at(key).get<double>();
+}
+
+void CopyTree(const std::string& from, const std::string& to) {
+  std::error_code ec;
+  fs::remove_all(to, ec);
+  const std::string tmp = to + std::string(kTempMarker) + "copy";
+  fs::remove_all(tmp, ec);
+  // Hard links where possible: cache entries are never modified in place.
+  fs::copy(from, tmp, fs::copy_options::recursive | fs::copy_options::create_hard_links, ec);
+  if (ec) {
+    ec.clear();
+    fs::remove_all(tmp, ec);
+    fs::copy(from, tmp, fs::copy_options::recursive, ec);
+  }
+  if (ec) RELIGHT_USER_ERROR() << "cannot copy ground truth '" << from << "' to '" << to << "': " << ec.message();
+  fs::rename(tmp, to, ec);
+  if (ec) RELIGHT_USER_ERROR() << "cannot move ground truth into place at '" << to << "': " << ec.message();
+}
+
+}  // namespace
+
+std::optional<double> FocalPixelsFromExif(const ImageMetadata& exif, int source_width, int source_height,
+                                          int max_side) {
+  if (!exif.focal_length_35mm || source_width <= 0 || source_height <= 0) return std::nullopt;
+  // 35 mm equivalent focal length is defined on the diagonal of a 36x24 mm frame.
+  const double scale = double(max_side) / std::max(source_width, source_height);
+  const double diag_px = std::hypot(double(source_width), double(source_height)) * scale;
+  return *exif.focal_length_35mm * diag_px / std::hypot(36.0, 24.0);
+}
+
+IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_dir,
+                        const std::string& ground_truth_dir, const std::string& output_dir) {
+  Timer timer;
+  IngestSummary summary;
+  if (!fs::is_directory(photo_dir)) {
+    RELIGHT_USER_ERROR() << "photo folder '" << photo_dir << "' does not exist; set ingest.images in the config";
+  }
+  std::vector<fs::path> files;
+  auto consider = [&](const fs::directory_entry& e) {
+    const std::string name = e.path().filename().string();
+    if (name.empty() || name[0] == '.') return;
+    if (e.is_regular_file()) files.push_back(e.path());
+  };
+  if (options.recursive) {
+    for (const auto& e : fs::recursive_directory_iterator(photo_dir)) consider(e);
+  } else {
+    for (const auto& e : fs::directory_iterator(photo_dir)) consider(e);
+  }
+  std::sort(files.begin(), files.end());
+  if (files.empty()) {
+    RELIGHT_USER_ERROR() << "photo folder '" << photo_dir
+                         << "' contains no files; put the downloaded photos there (JPEG/PNG/TIFF/EXR/HDR)";
+  }
+  RLOG_INFO("scanning {} files in {}", files.size(), photo_dir);
+
+  const std::string image_dir = JoinPath(output_dir, "images");
+  EnsureDir(image_dir);
+  std::vector<Candidate> candidates(files.size());
+  Progress progress("read photos", static_cast<int64_t>(files.size()));
+  tbb::parallel_for(size_t(0), files.size(), [&](size_t i) {
+    Candidate& c = candidates[i];
+    const fs::path& path = files[i];
+    c.photo.name = options.recursive ? fs::relative(path, photo_dir).generic_string() : path.filename().string();
+    c.photo.source_path = fs::absolute(path).string();
+    try {
+      ImageMetadata meta;
+      Image image = ReadImage(path.string(), &meta, /*apply_orientation=*/true);
+      c.photo.exif = meta;
+      c.photo.linear = meta.is_float;
+      c.photo.bits_per_sample = meta.bits_per_sample;
+      c.photo.source_width = image.width;
+      c.photo.source_height = image.height;
+      const int longest = std::max(image.width, image.height);
+      if (options.max_image_size > 0 && longest > options.max_image_size) {
+        c.photo.scale = double(options.max_image_size) / longest;
+        const int w = std::max(1, static_cast<int>(std::lround(image.width * c.photo.scale)));
+        const int h = std::max(1, static_cast<int>(std::lround(image.height * c.photo.scale)));
+        image = ResizeImage(image, w, h);
+      }
+      if (image.channels == 1 || image.channels == 2) {  // gray (+alpha): replicate to RGB
+        Image rgb(image.width, image.height, 3);
+        for (size_t p = 0; p < size_t(image.width) * image.height; ++p)
+          for (int k = 0; k < 3; ++k) rgb.pixels[p * 3 + k] = image.pixels[p * image.channels];
+        image = std::move(rgb);
+      }
+      if (image.channels == 4) {  // drop alpha
+        Image rgb(image.width, image.height, 3);
+        for (size_t p = 0; p < size_t(image.width) * image.height; ++p)
+          for (int k = 0; k < 3; ++k) rgb.pixels[p * 3 + k] = image.pixels[p * 4 + k];
+        image = std::move(rgb);
+      }
+      c.photo.width = image.width;
+      c.photo.height = image.height;
+      c.photo.focal_px = FocalPixelsFromExif(meta, c.photo.source_width, c.photo.source_height,
+                                             std::max(image.width, image.height));
+      c.photo.sha256 = FileSha256(path.string());
+      c.thumbnail = Thumbnail(image);
+      c.mean_chroma = MeanChroma(image);
+      c.image = std::move(image);
+      c.ok = true;
+    } catch (const UserError& e) {
+      c.reason = LooksLikeImageFile(path) ? e.what() : "not an image file";
+    }
+    progress.Advance();
+  });
+  progress.Finish();
+
+  // Drop black-and-white photos and duplicates, in name order (keep the first).
+  std::vector<size_t> kept;
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    Candidate& c = candidates[i];
+    if (!c.ok) continue;
+    if (options.drop_grayscale && c.mean_chroma < options.grayscale_chroma) {
+      c.ok = false;
+      c.reason = "black-and-white photo (mean chroma " + std::to_string(c.mean_chroma) +
+                 " < ingest.grayscale_chroma); it carries no colour of the light";
+      continue;
+    }
+    if (options.drop_duplicates) {
+      for (size_t j : kept) {
+        const Candidate& o = candidates[j];
+        if (o.photo.sha256 == c.photo.sha256) {
+          c.ok = false;
+          c.reason = "exact duplicate of " + o.photo.name;
+          break;
+        }
+        const double aspect_a = double(c.photo.width) / c.photo.height;
+        const double aspect_b = double(o.photo.width) / o.photo.height;
+        if (std::abs(aspect_a - aspect_b) > 0.02 * aspect_a) continue;
+        double corr = 0;
+        for (size_t k = 0; k < c.thumbnail.size(); ++k) corr += double(c.thumbnail[k]) * o.thumbnail[k];
+        if (corr > options.duplicate_correlation) {
+          c.ok = false;
+          c.reason = "near-duplicate of " + o.photo.name + " (thumbnail correlation " + std::to_string(corr) + ")";
+          break;
+        }
+      }
+      if (!c.ok) continue;
+    }
+    kept.push_back(i);
+  }
+
+  // Write the kept photos (each atomically) under unique output names.
+  std::map<std::string, int> used_names;
+  for (size_t i : kept) {
+    Candidate& c = candidates[i];
+    std::string stem = fs::path(c.photo.name).stem().string();
+    std::replace(stem.begin(), stem.end(), '/', '_');
+    const int n = used_names[stem]++;
+    if (n > 0) stem += "_" + std::to_string(n);
+    const bool is_float = c.photo.linear;
+    // JPEGs stay JPEG; other 8/16-bit formats become lossless PNG; float stays EXR.
+    const bool is_jpeg = c.photo.exif.format == "jpeg" && c.photo.bits_per_sample <= 8;
+    const std::string ext = is_float ? ".exr" : is_jpeg ? ".jpg" : ".png";
+    c.photo.file = "images/" + stem + ext;
+  }
+  Progress write_progress("write photos", static_cast<int64_t>(kept.size()));
+  tbb::parallel_for(size_t(0), kept.size(), [&](size_t k) {
+    Candidate& c = candidates[kept[k]];
+    const std::string out = JoinPath(output_dir, c.photo.file);
+    std::string source_ext = fs::path(c.photo.source_path).extension().string();
+    std::transform(source_ext.begin(), source_ext.end(), source_ext.begin(), ::tolower);
+    if (source_ext == ".jpeg") source_ext = ".jpg";
+    const bool untouched = c.photo.scale == 1.0 && c.photo.exif.orientation == 1 &&
+                           source_ext == fs::path(out).extension().string() &&
+                           c.image.channels == c.photo.exif.channels;
+    if (untouched) {
+      WriteFileAtomic(out, ReadFileToString(c.photo.source_path));  // bit-exact copy keeps the JPEG as shot
+    } else {
+      WriteOptions w;
+      w.type = c.photo.linear                   ? PixelType::kFloat
+               : c.photo.bits_per_sample > 8 ? PixelType::kUint16
+                                             : PixelType::kUint8;
+      w.jpeg_quality = options.jpeg_quality;
+      w.exif = &c.photo.exif;
+      WriteImage(out, c.image, w);
+    }
+    c.image = Image();  // free memory early
+    write_progress.Advance();
+  });
+  write_progress.Finish();
+
+  for (const auto& c : candidates) {
+    if (c.ok) {
+      summary.photos.push_back(c.photo);
+    } else {
+      summary.skipped.push_back({c.photo.name, c.reason});
+      RLOG_WARN("skipped '{}': {}", c.photo.source_path, c.reason);
+    }
+  }
+  if (static_cast<int>(summary.photos.size()) < options.min_photos) {
+    std::string reasons;
+    for (size_t i = 0; i < summary.skipped.size() && i < 5; ++i) {
+      reasons += "; " + summary.skipped[i].name + ": " + summary.skipped[i].reason;
+    }
+    RELIGHT_USER_ERROR() << "only " << summary.photos.size() << " usable photo(s) in '" << photo_dir << "' (need at least "
+                         << options.min_photos << ", " << summary.skipped.size() << " skipped" << reasons
+                         << "); add more photos of the object or lower ingest.min_photos";
+  }
+
+  if (!ground_truth_dir.empty()) {
+    if (!fs::is_directory(ground_truth_dir)) {
+      RELIGHT_USER_ERROR() << "ground-truth folder '" << ground_truth_dir << "' does not exist; fix ingest.ground_truth";
+    }
+    CopyTree(ground_truth_dir, JoinPath(output_dir, "ground_truth"));
+  }
+
+  summary.seconds = timer.Seconds();
+  OrderedJson manifest;
+  manifest["format"] = "relight-ingest-manifest";
+  manifest["version"] = 1;
+  manifest["source_folder"] = fs::absolute(photo_dir).string();
+  manifest["ground_truth"] = ground_truth_dir.empty() ? Json(nullptr) : Json("ground_truth");
+  OrderedJson photos = OrderedJson::array();
+  for (const auto& p : summary.photos) {
+    OrderedJson j;
+    j["name"] = p.name;
+    j["file"] = p.file;
+    j["source_path"] = p.source_path;
+    j["sha256"] = p.sha256;
+    j["width"] = p.width;
+    j["height"] = p.height;
+    j["source_width"] = p.source_width;
+    j["source_height"] = p.source_height;
+    j["scale"] = p.scale;
+    j["linear"] = p.linear;
+    j["bits_per_sample"] = p.bits_per_sample;
+    j["focal_px"] = OptionalToJson(p.focal_px);
+    j["exif"] = {{"format", p.exif.format},
+                 {"orientation", p.exif.orientation},
+                 {"focal_length_mm", OptionalToJson(p.exif.focal_length_mm)},
+                 {"focal_length_35mm", OptionalToJson(p.exif.focal_length_35mm)},
+                 {"exposure_time_s", OptionalToJson(p.exif.exposure_time_s)},
+                 {"f_number", OptionalToJson(p.exif.f_number)},
+                 {"iso", OptionalToJson(p.exif.iso)},
+                 {"camera_make", p.exif.camera_make},
+                 {"camera_model", p.exif.camera_model}};
+    photos.push_back(j);
+  }
+  manifest["photos"] = photos;
+  OrderedJson skipped = OrderedJson::array();
+  for (const auto& s : summary.skipped) skipped.push_back({{"name", s.name}, {"reason", s.reason}});
+  manifest["skipped"] = skipped;
+  WriteJsonAtomic(JoinPath(output_dir, "manifest.json"), manifest);
+
+  OrderedJson stage_summary;
+  stage_summary["photos"] = summary.photos.size();
+  stage_summary["skipped"] = summary.skipped.size();
+  stage_summary["seconds"] = summary.seconds;
+  WriteJsonAtomic(JoinPath(output_dir, "summary.json"), stage_summary);
+  RLOG_INFO("{} photos ingested, {} skipped, in {:.1f} s", summary.photos.size(), summary.skipped.size(),
+            summary.seconds);
+  return summary;
+}
+
+IngestSummary ReadIngestManifest(const std::string& ingest_dir) {
+  const Json j = ReadJsonFile(JoinPath(ingest_dir, "manifest.json"));
+  IngestSummary s;
+  for (const auto& p : j.at("photos")) {
+    IngestedPhoto photo;
+    photo.name = p.at("name");
+    photo.file = p.at("file");
+    photo.source_path = p.value("source_path", "");
+    photo.sha256 = p.value("sha256", "");
+    photo.width = p.at("width");
+    photo.height = p.at("height");
+    photo.source_width = p.value("source_width", photo.width);
+    photo.source_height = p.value("source_height", photo.height);
+    photo.scale = p.value("scale", 1.0);
+    photo.linear = p.value("linear", false);
+    photo.bits_per_sample = p.value("bits_per_sample", 8);
+    photo.focal_px = JsonToOptional(p, "focal_px");
+    if (p.contains("exif")) {
+      const Json& e = p.at("exif");
+      photo.exif.format = e.value("format", "");
+      photo.exif.orientation = e.value("orientation", 1);
+      photo.exif.focal_length_mm = JsonToOptional(e, "focal_length_mm");
+      photo.exif.focal_length_35mm = JsonToOptional(e, "focal_length_35mm");
+      photo.exif.exposure_time_s = JsonToOptional(e, "exposure_time_s");
+      photo.exif.f_number = JsonToOptional(e, "f_number");
+      photo.exif.iso = JsonToOptional(e, "iso");
+      photo.exif.camera_make = e.value("camera_make", "");
+      photo.exif.camera_model = e.value("camera_model", "");
+    }
+    s.photos.push_back(photo);
+  }
+  for (const auto& k : j.value("skipped", Json::array())) s.skipped.push_back({k.at("name"), k.at("reason")});
+  return s;
+}
+
+}  // namespace relight

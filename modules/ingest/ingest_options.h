@@ -1,0 +1,52 @@
+// Options of the `ingest` stage: scan a photo folder into a clean, upright,
+// size-limited image set with a manifest.
+#pragma once
+
+#include <string>
+
+#include "core/error.h"
+#include "core/options.h"
+#include "core/stage.h"
+
+namespace relight {
+
+inline const StageInfo kIngestStage{
+    "ingest", "Scan the photo folder: read EXIF, fix orientation, downscale, drop unusable photos", 1};
+
+struct IngestOptions {
+  std::string images;                // Photo folder; empty when the synthesize stage provides the photos.
+  std::string ground_truth;          // Optional ground-truth folder carried along for evaluation.
+  bool recursive = false;            // Also scan sub-folders.
+  int max_image_size = 1600;         // Longest side in pixels after downscaling; 0 keeps the original size.
+  int min_photos = 3;                // Fewer usable photos than this is an error.
+  int jpeg_quality = 95;             // Quality of re-encoded 8-bit photos.
+  bool drop_grayscale = true;        // Drop black-and-white photos (they carry no colour of the light).
+  double grayscale_chroma = 0.01;    // Mean chroma (max-min of RGB, encoded) below which a photo is grayscale.
+  bool drop_duplicates = true;       // Drop exact and near-duplicate photos (keeps the first by name).
+  double duplicate_correlation = 0.995;  // Thumbnail correlation above which two photos are near-duplicates.
+
+  void Declare(OptionTable* t) {
+    t->Add("images", &images, "Photo folder (JPEG/PNG/TIFF/EXR/HDR). Empty when the synthesize stage runs.")
+        .InputDir();
+    t->Add("ground_truth", &ground_truth,
+           "Optional ground-truth folder (docs/FORMATS.md) copied along for the evaluate stage.")
+        .InputDir();
+    t->Add("recursive", &recursive, "Also scan sub-folders of the photo folder.");
+    t->Add("max_image_size", &max_image_size,
+           "Longest image side in pixels after downscaling; 0 keeps the original size.")
+        .Min(0);
+    t->Add("min_photos", &min_photos, "Fewer usable photos than this is an error.").Min(1);
+    t->Add("jpeg_quality", &jpeg_quality, "JPEG quality of re-encoded 8-bit photos.").Range(50, 100);
+    t->Add("drop_grayscale", &drop_grayscale, "Drop black-and-white photos (they carry no colour of the light).");
+    t->Add("grayscale_chroma", &grayscale_chroma,
+           "Mean chroma (max-min of encoded RGB) below which a photo counts as black-and-white.")
+        .Range(0, 1);
+    t->Add("drop_duplicates", &drop_duplicates, "Drop exact and near-duplicate photos (keeps the first by name).");
+    t->Add("duplicate_correlation", &duplicate_correlation,
+           "Thumbnail correlation above which two photos count as near-duplicates.")
+        .Range(0, 1);
+  }
+  void Check() const {}
+};
+
+}  // namespace relight

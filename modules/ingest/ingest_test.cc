@@ -1,0 +1,148 @@
+#include "ingest/ingest.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/json.h"
+#include "core/log.h"
+#include "testing/testing.h"
+
+namespace relight {
+namespace {
+namespace fs = std::filesystem;
+
+// A colourful random-texture photo (distinct per seed).
+Image Photo(int w, int h, int seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  Image img(w, h, 3);
+  const int block = 8;
+  for (int by = 0; by < h; by += block)
+    for (int bx = 0; bx < w; bx += block) {
+      const float r = u(rng), g = u(rng), b = u(rng);
+      for (int y = by; y < std::min(h, by + block); ++y)
+        for (int x = bx; x < std::min(w, bx + block); ++x) {
+          img.at(x, y, 0) = r;
+          img.at(x, y, 1) = g;
+          img.at(x, y, 2) = b;
+        }
+    }
+  return img;
+}
+
+class IngestTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    InitLogging("ingest_test", "", LogLevel::kError);
+    setenv("RELIGHT_PROGRESS", "off", 1);
+    fs::create_directories(dir_ / "photos");
+  }
+  testing::TempDir dir_;
+  std::string photos() { return dir_ / "photos"; }
+  std::string out() { return dir_ / "out"; }
+};
+
+TEST_F(IngestTest, BadFilesAreSkippedWithReasons) {
+  for (int i = 0; i < 3; ++i) WriteImage(photos() + "/good" + std::to_string(i) + ".jpg", Photo(64, 48, i));
+  WriteImage(dir_ / "full.jpg", Photo(256, 256, 99));
+  const std::string bytes = ReadFileToString(dir_ / "full.jpg");
+  std::ofstream(photos() + "/truncated.jpg", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  std::ofstream(photos() + "/notes.jpg") << "not a jpeg at all";
+  std::ofstream(photos() + "/empty.jpg");
+  std::ofstream(photos() + "/readme.txt") << "hello";
+  const IngestSummary s = RunIngest(IngestOptions{}, photos(), "", out());
+  ASSERT_EQ(s.photos.size(), 3u);
+  ASSERT_EQ(s.skipped.size(), 4u);
+  std::map<std::string, std::string> reasons;
+  for (const auto& k : s.skipped) reasons[k.name] = k.reason;
+  EXPECT_NE(reasons["truncated.jpg"].find("truncated"), std::string::npos) << reasons["truncated.jpg"];
+  EXPECT_NE(reasons["empty.jpg"].find("empty"), std::string::npos);
+  EXPECT_NE(reasons["notes.jpg"].find("notes.jpg"), std::string::npos);
+  EXPECT_EQ(reasons["readme.txt"], "not an image file");
+  // The manifest round-trips.
+  const IngestSummary m = ReadIngestManifest(out());
+  ASSERT_EQ(m.photos.size(), 3u);
+  EXPECT_EQ(m.photos[0].name, "good0.jpg");
+  EXPECT_TRUE(fs::exists(out() + "/" + m.photos[0].file));
+  EXPECT_EQ(m.skipped.size(), 4u);
+}
+
+TEST_F(IngestTest, EmptyFolderAndTooFewPhotosAreClearErrors) {
+  try {
+    RunIngest(IngestOptions{}, photos(), "", out());
+    FAIL();
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("contains no files"), std::string::npos) << e.what();
+  }
+  std::ofstream(photos() + "/a.jpg") << "junk";
+  WriteImage(photos() + "/b.png", Photo(32, 32, 1));
+  try {
+    RunIngest(IngestOptions{}, photos(), "", out());
+    FAIL();
+  } catch (const UserError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("only 1 usable photo"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("a.jpg"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("ingest.min_photos"), std::string::npos) << msg;
+  }
+  EXPECT_THROW(RunIngest(IngestOptions{}, dir_ / "missing", "", out()), UserError);
+}
+
+TEST_F(IngestTest, DownscalesGrayscaleAndDuplicatesAreDropped) {
+  WriteImage(photos() + "/a_big.png", Photo(800, 400, 1));
+  WriteImage(photos() + "/b.png", Photo(200, 100, 2));
+  WriteImage(photos() + "/c_copy.png", Photo(200, 100, 2));          // exact duplicate of b
+  Image near = Photo(200, 100, 2);
+  for (float& v : near.pixels) v = std::min(1.0f, v * 0.97f + 0.01f);  // re-processed copy
+  WriteImage(photos() + "/d_near.png", near);
+  Image gray = Photo(200, 100, 3);
+  for (size_t p = 0; p < gray.pixels.size(); p += 3) gray.pixels[p + 1] = gray.pixels[p + 2] = gray.pixels[p];
+  WriteImage(photos() + "/e_gray.png", gray);
+  WriteImage(photos() + "/f.png", Photo(100, 200, 4));
+  IngestOptions options;
+  options.max_image_size = 256;
+  const IngestSummary s = RunIngest(options, photos(), "", out());
+  std::map<std::string, std::string> reasons;
+  for (const auto& k : s.skipped) reasons[k.name] = k.reason;
+  EXPECT_NE(reasons["c_copy.png"].find("exact duplicate of b.png"), std::string::npos) << reasons["c_copy.png"];
+  EXPECT_NE(reasons["d_near.png"].find("near-duplicate of b.png"), std::string::npos) << reasons["d_near.png"];
+  EXPECT_NE(reasons["e_gray.png"].find("black-and-white"), std::string::npos) << reasons["e_gray.png"];
+  ASSERT_EQ(s.photos.size(), 3u);
+  EXPECT_EQ(s.photos[0].width, 256);
+  EXPECT_EQ(s.photos[0].height, 128);
+  EXPECT_DOUBLE_EQ(s.photos[0].scale, 256.0 / 800.0);
+  const Image written = ReadImage(out() + "/" + s.photos[0].file);
+  EXPECT_EQ(written.width, 256);
+  // Untouched photos are copied bit-exactly.
+  EXPECT_EQ(s.photos[1].file, "images/b.png");
+  EXPECT_TRUE(ReadFileToString(out() + "/" + s.photos[1].file) == ReadFileToString(photos() + "/b.png"));
+}
+
+TEST_F(IngestTest, FocalFromExif35mm) {
+  ImageMetadata exif;
+  exif.focal_length_35mm = 50.0;
+  // A 3:2 photo: the 35 mm frame's diagonal maps onto the image diagonal.
+  const auto f = FocalPixelsFromExif(exif, 3000, 2000, 1500);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_NEAR(*f, 50.0 / 36.0 * 1500.0, 1e-9);
+  exif.focal_length_35mm.reset();
+  EXPECT_FALSE(FocalPixelsFromExif(exif, 3000, 2000, 1500).has_value());
+}
+
+TEST_F(IngestTest, GroundTruthIsCarriedAlong) {
+  for (int i = 0; i < 3; ++i) WriteImage(photos() + "/p" + std::to_string(i) + ".png", Photo(32, 32, 10 + i));
+  fs::create_directories(dir_ / "gt/sub");
+  std::ofstream(dir_ / "gt/sub/cameras.txt") << "# cameras";
+  RunIngest(IngestOptions{}, photos(), dir_ / "gt", out());
+  EXPECT_EQ(ReadFileToString(out() + "/ground_truth/sub/cameras.txt"), "# cameras");
+  EXPECT_EQ(ReadJsonFile(out() + "/manifest.json")["ground_truth"], "ground_truth");
+}
+
+}  // namespace
+}  // namespace relight

@@ -1,0 +1,201 @@
+// `pipeline`: chains the stage executables with a content-keyed cache.
+//
+//   pipeline run CONFIG [--workspace DIR] [--from STAGE] [--only STAGE] [--force STAGE] [--until STAGE]
+//   pipeline status CONFIG        pipeline clean CONFIG [--keep-latest]
+//   pipeline report CONFIG        pipeline stages        pipeline options [STAGE]
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "pipeline/runner.h"
+#include "pipeline/stage_graph.h"
+#include "pipeline/subprocess.h"
+
+namespace relight::pipeline {
+namespace {
+namespace fs = std::filesystem;
+
+struct CommonArgs {
+  std::string config;
+  std::string workspace;
+  std::vector<std::string> sets;
+};
+
+void AddCommon(CLI::App* cmd, CommonArgs* args) {
+  cmd->add_option("CONFIG", args->config, "YAML config (see configs/README.md)")->required();
+  cmd->add_option("--workspace", args->workspace,
+                  "Workspace folder; default: pipeline.workspace from the config, else ./workspace/<config name>");
+  cmd->add_option("--set", args->sets, "Override an option: STAGE.OPTION=VALUE (repeatable)");
+}
+
+std::string ResolveWorkspace(const CommonArgs& args, const ResolvedConfig& config) {
+  if (!args.workspace.empty()) return fs::absolute(args.workspace).lexically_normal().string();
+  if (!config.pipeline().workspace.empty()) return config.pipeline().workspace;
+  return fs::absolute(fs::path("workspace") / config.document().stem()).lexically_normal().string();
+}
+
+ConfigDocument LoadDocument(const CommonArgs& args) {
+  ConfigDocument doc = ConfigDocument::Load(args.config);
+  for (const auto& s : args.sets) doc.AddOverride(s);
+  return doc;
+}
+
+void PrintTable(const std::vector<StageRecord>& records, std::ostream& out) {
+  out << std::left << std::setw(12) << "stage" << std::setw(10) << "status" << std::setw(10) << "seconds"
+      << std::setw(18) << "key" << "output / reason\n";
+  for (const auto& r : records) {
+    std::ostringstream secs;
+    secs << std::fixed << std::setprecision(1) << r.seconds;
+    out << std::left << std::setw(12) << r.name << std::setw(10) << r.status << std::setw(10)
+        << (r.key.empty() ? "-" : secs.str()) << std::setw(18) << (r.key.empty() ? "-" : r.key.substr(0, 16))
+        << (r.reason.empty() ? r.output_dir : r.reason) << "\n";
+  }
+}
+
+int CmdRun(const CommonArgs& args, const RunRequest& request, bool report_only) {
+  const ResolvedConfig config(LoadDocument(args), AllStages());
+  const std::string workspace = ResolveWorkspace(args, config);
+  WorkspaceLock lock(workspace);
+  InitLogging("pipeline", JoinPath(workspace, "pipeline.log"), LogLevel::kInfo);
+  RLOG_INFO("config {}, workspace {}", config.document().path(), workspace);
+  Runner runner(AllStages(), config, workspace, ExecutableDir());
+  const auto records = runner.Run(request);
+  std::cerr << "\n";
+  PrintTable(records, std::cerr);
+  for (const auto& r : records) {
+    if (r.status == "failed") {
+      std::cerr << "pipeline: stage '" << r.name << "' failed: " << r.reason << "\n"
+                << "pipeline: log: " << JoinPath(r.output_dir.empty() ? workspace : r.output_dir, "stage.log")
+                << "\n";
+      return 1;
+    }
+  }
+  std::cerr << "summary: " << JoinPath(workspace, "summary.json") << "\n";
+  const std::string report = JoinPath(workspace, "report/index.html");
+  if (fs::exists(report)) std::cerr << "report: " << report << "\n";
+  if (report_only && !fs::exists(report)) {
+    std::cerr << "pipeline: no report was written (is the report stage enabled?)\n";
+    return 1;
+  }
+  return 0;
+}
+
+int CmdStatus(const CommonArgs& args) {
+  const ResolvedConfig config(LoadDocument(args), AllStages());
+  const std::string workspace = ResolveWorkspace(args, config);
+  InitLogging("pipeline", "", LogLevel::kWarning);
+  Runner runner(AllStages(), config, workspace, ExecutableDir());
+  std::cout << "workspace " << workspace << "\n";
+  PrintTable(runner.Plan(), std::cout);
+  return 0;
+}
+
+int CmdClean(const CommonArgs& args, bool keep_latest) {
+  const ResolvedConfig config(LoadDocument(args), AllStages());
+  const std::string workspace = ResolveWorkspace(args, config);
+  if (!fs::exists(workspace)) {
+    std::cout << "nothing to clean: " << workspace << " does not exist\n";
+    return 0;
+  }
+  WorkspaceLock lock(workspace);
+  InitLogging("pipeline", "", LogLevel::kWarning);
+  Runner runner(AllStages(), config, workspace, ExecutableDir());
+  const int removed = runner.Clean(keep_latest);
+  std::cout << "removed " << removed << " cache entr" << (removed == 1 ? "y" : "ies") << " from " << workspace
+            << (keep_latest ? " (kept the entries of the current config)" : "") << "\n";
+  return 0;
+}
+
+int CmdStages() {
+  for (const auto& s : AllStages()) {
+    std::cout << std::left << std::setw(12) << s.name() << s.info.description << "\n";
+  }
+  return 0;
+}
+
+int CmdOptions(const std::string& stage, bool markdown) {
+  PipelineOptions pipeline_options;
+  OptionTable pipeline_table = MakeOptionTable("pipeline", &pipeline_options);
+  if (stage.empty() || stage == "pipeline") {
+    std::cout << (markdown ? "### pipeline\n\nThe orchestrator itself.\n\n" + pipeline_table.MarkdownReference() + "\n"
+                           : pipeline_table.HelpText() + "\n");
+  }
+  bool found = stage.empty() || stage == "pipeline";
+  for (const auto& s : AllStages()) {
+    if (!stage.empty() && s.name() != stage) continue;
+    found = true;
+    auto holder = s.make_options();
+    if (markdown) {
+      std::cout << "### " << s.name() << "\n\n" << s.info.description << "\n\n"
+                << holder->table().MarkdownReference() << "\n";
+    } else {
+      std::cout << s.name() << ": " << s.info.description << "\n" << holder->table().HelpText() << "\n";
+    }
+  }
+  if (!found) RELIGHT_USER_ERROR() << "no stage named '" << stage << "'; see `pipeline stages`";
+  return 0;
+}
+
+int Main(int argc, char** argv) {
+  CLI::App app("relight pipeline: relightable 3D models from photo collections", "pipeline");
+  app.require_subcommand(1);
+  CommonArgs common;
+  RunRequest request;
+  std::vector<std::string> force;
+
+  auto* run = app.add_subcommand("run", "Run every stage that is not cached for CONFIG");
+  AddCommon(run, &common);
+  run->add_option("--from", request.from, "Rerun this stage and every later one");
+  run->add_option("--only", request.only, "Run only this stage (its upstream must be cached)");
+  run->add_option("--force", force, "Rerun this stage even if cached (repeatable)");
+  run->add_option("--until", request.until, "Stop after this stage");
+
+  auto* status = app.add_subcommand("status", "Show which stages of CONFIG are cached");
+  AddCommon(status, &common);
+  bool keep_latest = false;
+  auto* clean = app.add_subcommand("clean", "Delete cache entries of CONFIG's workspace");
+  AddCommon(clean, &common);
+  clean->add_flag("--keep-latest", keep_latest, "Keep the entries the current config uses");
+  auto* report = app.add_subcommand("report", "Run what is needed and write <workspace>/report/index.html");
+  AddCommon(report, &common);
+  app.add_subcommand("stages", "List the stages with one-line descriptions");
+  std::string options_stage;
+  bool markdown = false;
+  auto* options = app.add_subcommand("options", "Print the option reference (all stages, or one)");
+  options->add_option("STAGE", options_stage, "Stage name (or 'pipeline')");
+  options->add_flag("--markdown", markdown, "Markdown tables (as in configs/README.md)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    if (run->parsed()) {
+      request.force.insert(force.begin(), force.end());
+      return CmdRun(common, request, false);
+    }
+    if (report->parsed()) return CmdRun(common, RunRequest{}, true);
+    if (status->parsed()) return CmdStatus(common);
+    if (clean->parsed()) return CmdClean(common, keep_latest);
+    if (options->parsed()) return CmdOptions(options_stage, markdown);
+    return CmdStages();
+  } catch (const UserError& e) {
+    std::cerr << "pipeline: error: " << e.what() << "\n";
+    return kExitUserError;
+  } catch (const std::exception& e) {
+    std::cerr << "pipeline: internal error (please report it): " << e.what() << "\n";
+    return kExitInternalError;
+  }
+}
+
+}  // namespace
+}  // namespace relight::pipeline
+
+int main(int argc, char** argv) { return relight::pipeline::Main(argc, argv); }

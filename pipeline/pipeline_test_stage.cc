@@ -1,0 +1,37 @@
+// A test stage for the orchestrator tests: sums upstream results, writes one
+// file per item (atomically, skipping items already written: per-item resume)
+// and appends each invocation to $TEST_STAGE_LOG.
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "core/fs.h"
+#include "core/stage.h"
+#include "pipeline/pipeline_test_stage.h"
+
+int main(int argc, char** argv) {
+  using namespace relight;
+  using relight::pipeline::TestStageOptions;
+  const StageInfo info{TEST_STAGE_NAME, "test stage", 1};
+  return StageMain<TestStageOptions>(argc, argv, info, [](const TestStageOptions& o, const StageContext& ctx) {
+    if (const char* log = std::getenv("TEST_STAGE_LOG")) std::ofstream(log, std::ios::app) << TEST_STAGE_NAME << "\n";
+    if (std::getenv("TEST_STAGE_FAIL") && std::string(std::getenv("TEST_STAGE_FAIL")) == TEST_STAGE_NAME) {
+      RELIGHT_USER_ERROR() << "failing on request of TEST_STAGE_FAIL";
+    }
+    if (o.fail) RELIGHT_USER_ERROR() << "asked to fail on input 'x.jpg'; remove it";
+    long total = o.value;
+    for (const auto& [name, dir] : ctx.inputs) total += std::stol(ReadFileToString(JoinPath(dir, "result.txt")));
+    int computed = 0;
+    for (int i = 0; i < o.items; ++i) {
+      const std::string item = ctx.OutputPath("item_" + std::to_string(i) + ".txt");
+      if (std::filesystem::exists(item)) continue;  // finished by an earlier, killed run
+      std::this_thread::sleep_for(std::chrono::milliseconds(o.sleep_ms));
+      WriteFileAtomic(item, std::to_string(i));
+      ++computed;
+    }
+    std::ofstream(ctx.OutputPath("computed.txt"), std::ios::app) << computed << "\n";
+    WriteFileAtomic(ctx.OutputPath("result.txt"), std::to_string(total));
+  });
+}

@@ -1,0 +1,127 @@
+// The project's stage graph, in execution order. Each entry names the stage's
+// options type (from its module's *_options.h, header-only), the stages whose
+// outputs it reads (`--input NAME=DIR`), and when it is skipped. A stage whose
+// module is not in the tree is left out, so the graph builds at every step.
+#include "pipeline/stage_graph.h"
+
+#if __has_include("synth/synthesize_options.h")
+#include "synth/synthesize_options.h"
+#define RELIGHT_HAVE_SYNTHESIZE 1
+#endif
+#include "ingest/ingest_options.h"
+#if __has_include("sfm/sfm_options.h")
+#include "sfm/sfm_options.h"
+#define RELIGHT_HAVE_SFM 1
+#endif
+#if __has_include("mvs/mvs_options.h")
+#include "mvs/mvs_options.h"
+#define RELIGHT_HAVE_MVS 1
+#endif
+#if __has_include("meshing/mesh_options.h")
+#include "meshing/mesh_options.h"
+#define RELIGHT_HAVE_MESH 1
+#endif
+#if __has_include("radiometry/linearize_options.h")
+#include "radiometry/linearize_options.h"
+#define RELIGHT_HAVE_LINEARIZE 1
+#endif
+#if __has_include("visibility/visibility_options.h")
+#include "visibility/visibility_options.h"
+#define RELIGHT_HAVE_VISIBILITY 1
+#endif
+#if __has_include("observe/observe_options.h")
+#include "observe/observe_options.h"
+#define RELIGHT_HAVE_OBSERVE 1
+#endif
+#if __has_include("solver/inverse_options.h")
+#include "solver/inverse_options.h"
+#define RELIGHT_HAVE_INVERSE 1
+#endif
+#if __has_include("relight/relight_options.h")
+#include "relight/relight_options.h"
+#define RELIGHT_HAVE_RELIGHT 1
+#endif
+#if __has_include("evaluate/evaluate_options.h")
+#include "evaluate/evaluate_options.h"
+#define RELIGHT_HAVE_EVALUATE 1
+#endif
+#if __has_include("report/report_options.h")
+#include "report/report_options.h"
+#define RELIGHT_HAVE_REPORT 1
+#endif
+
+namespace relight::pipeline {
+namespace {
+
+template <typename Options>
+std::function<std::unique_ptr<StageOptionsHolder>()> Make(const StageInfo& info) {
+  return [name = info.name] { return std::make_unique<TypedStageOptions<Options>>(name); };
+}
+
+using SkipFn = std::function<std::optional<std::string>(const ResolvedConfig&)>;
+
+}  // namespace
+
+const std::vector<StageDef>& AllStages() {
+  static const std::vector<StageDef> stages = [] {
+    std::vector<StageDef> s;
+#ifdef RELIGHT_HAVE_SYNTHESIZE
+    s.push_back({kSynthesizeStage, "", {}, Make<SynthesizeOptions>(kSynthesizeStage),
+                 SkipFn([](const ResolvedConfig& c) -> std::optional<std::string> {
+                   if (c.HasSection("synthesize")) return std::nullopt;
+                   return "the config has no synthesize: section (photos come from ingest.images)";
+                 })});
+#endif
+    s.push_back({kIngestStage, "", {"synthesize"}, Make<IngestOptions>(kIngestStage), nullptr});
+#ifdef RELIGHT_HAVE_SFM
+    s.push_back({kSfmStage, "", {"ingest"}, Make<SfmOptions>(kSfmStage), nullptr});
+#endif
+#ifdef RELIGHT_HAVE_MVS
+    s.push_back({kMvsStage, "", {"sfm"}, Make<MvsOptions>(kMvsStage),
+                 SkipFn([](const ResolvedConfig& c) -> std::optional<std::string> {
+#ifdef RELIGHT_HAVE_MESH
+                   const std::string& source = c.Get<MeshOptions>("mesh").source;
+                   if (source != "mvs") return "mesh.source is '" + source + "', so no dense reconstruction is needed";
+#endif
+                   return std::nullopt;
+                 })});
+#endif
+#ifdef RELIGHT_HAVE_MESH
+    s.push_back({kMeshStage, "", {"ingest", "sfm", "mvs"}, Make<MeshOptions>(kMeshStage), nullptr});
+#endif
+#ifdef RELIGHT_HAVE_LINEARIZE
+    s.push_back({kLinearizeStage, "", {"ingest"}, Make<LinearizeOptions>(kLinearizeStage), nullptr});
+#endif
+#ifdef RELIGHT_HAVE_VISIBILITY
+    s.push_back({kVisibilityStage, "", {"mesh"}, Make<VisibilityOptions>(kVisibilityStage), nullptr});
+#endif
+#ifdef RELIGHT_HAVE_OBSERVE
+    s.push_back({kObserveStage, "", {"sfm", "mesh", "linearize"}, Make<ObserveOptions>(kObserveStage), nullptr});
+#endif
+#ifdef RELIGHT_HAVE_INVERSE
+    s.push_back({kInverseStage, "", {"mesh", "visibility", "observe"}, Make<InverseOptions>(kInverseStage), nullptr});
+#endif
+#ifdef RELIGHT_HAVE_RELIGHT
+    s.push_back({kRelightStage, "", {"ingest", "sfm", "mesh", "inverse"}, Make<RelightOptions>(kRelightStage),
+                 nullptr});
+#endif
+#ifdef RELIGHT_HAVE_EVALUATE
+    s.push_back({kEvaluateStage,
+                 "",
+                 {"ingest", "sfm", "mesh", "linearize", "observe", "visibility", "inverse", "relight"},
+                 Make<EvaluateOptions>(kEvaluateStage),
+                 nullptr});
+#endif
+#ifdef RELIGHT_HAVE_REPORT
+    s.push_back({kReportStage,
+                 "",
+                 {"ingest", "sfm", "mesh", "linearize", "observe", "inverse", "relight", "evaluate"},
+                 Make<ReportOptions>(kReportStage),
+                 nullptr});
+#endif
+    return s;
+  }();
+  return stages;
+}
+
+}  // namespace relight::pipeline

@@ -1,0 +1,59 @@
+#include "pipeline/subprocess.h"
+
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+
+#include "core/error.h"
+
+namespace relight::pipeline {
+
+std::string ProcessResult::Describe() const {
+  if (signaled) return "killed by signal " + std::to_string(signal) + " (" + strsignal(signal) + ")";
+  return "exit code " + std::to_string(exit_code);
+}
+
+ProcessResult RunProcess(const std::vector<std::string>& argv) {
+  RELIGHT_CHECK(!argv.empty());
+  if (::access(argv[0].c_str(), X_OK) != 0) {
+    RELIGHT_USER_ERROR() << "stage executable '" << argv[0]
+                         << "' is missing; build the project first (cmake --build build)";
+  }
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid < 0) RELIGHT_USER_ERROR() << "cannot start '" << argv[0] << "': " << std::strerror(errno);
+  if (pid == 0) {
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(127);  // the parent died before prctl
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) RELIGHT_USER_ERROR() << "waiting for '" << argv[0] << "' failed: " << std::strerror(errno);
+  }
+  ProcessResult result;
+  if (WIFSIGNALED(status)) {
+    result.signaled = true;
+    result.signal = WTERMSIG(status);
+  } else {
+    result.exit_code = WEXITSTATUS(status);
+  }
+  return result;
+}
+
+std::string ExecutableDir() {
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string(".") : exe.parent_path().string();
+}
+
+}  // namespace relight::pipeline
