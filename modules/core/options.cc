@@ -211,6 +211,20 @@ std::string OptionField::ValueText() const {
       target_);
 }
 
+void OptionField::ResolvePaths(const std::string& base_dir) {
+  if (path_role_ == PathRole::kNone) return;
+  if (auto* s = std::get_if<std::string*>(&target_)) **s = ResolvePath(**s, base_dir);
+  if (auto* list = std::get_if<std::vector<std::string>*>(&target_)) {
+    for (auto& item : **list) item = ResolvePath(item, base_dir);
+  }
+}
+
+std::vector<std::string> OptionField::PathValues() const {
+  if (auto* s = std::get_if<std::string*>(&target_)) return (*s)->empty() ? std::vector<std::string>{} : std::vector<std::string>{**s};
+  if (auto* list = std::get_if<std::vector<std::string>*>(&target_)) return **list;
+  return {};
+}
+
 std::string OptionField::StringValue() const {
   if (auto* s = std::get_if<std::string*>(&target_)) return **s;
   return "";
@@ -387,9 +401,7 @@ void OptionTable::ApplyEntry(const std::string& name, const std::string& where, 
                          << "'; allowed options of '" << section_ << "': " << JoinStrings(names, ", ");
   }
   field->SetFromYaml(value, LineOf(value, file));
-  if (field->path_role() != PathRole::kNone) {
-    field->SetStringValue(ResolvePath(field->StringValue(), base_dir));
-  }
+  field->ResolvePaths(base_dir);
 }
 
 void OptionTable::ApplyText(const std::string& name, const std::string& value, const std::string& where) {
@@ -401,9 +413,7 @@ void OptionTable::ApplyText(const std::string& name, const std::string& value, c
                          << "'; allowed options of '" << section_ << "': " << JoinStrings(names, ", ");
   }
   field->SetFromText(value, where);
-  if (field->path_role() != PathRole::kNone) {
-    field->SetStringValue(ResolvePath(field->StringValue(), fs::current_path().string()));
-  }
+  field->ResolvePaths(fs::current_path().string());
 }
 
 void OptionTable::Validate(const std::string& where) const {
@@ -415,7 +425,15 @@ std::string OptionTable::CanonicalText(const std::function<std::string(const std
   for (const auto& f : fields_) {
     if (!f.in_key() || f.path_role() == PathRole::kOutput) continue;
     std::string value = f.ValueText();
-    if (f.is_input_path()) value = f.StringValue().empty() ? "<none>" : "sha256:" + digest(f.StringValue());
+    if (f.is_input_path()) {
+      if (std::holds_alternative<std::vector<std::string>*>(f.target())) {
+        std::vector<std::string> digests;
+        for (const auto& p : f.PathValues()) digests.push_back("sha256:" + digest(p));
+        value = "[" + JoinStrings(digests, ", ") + "]";
+      } else {
+        value = f.StringValue().empty() ? "<none>" : "sha256:" + digest(f.StringValue());
+      }
+    }
     lines[section_ + "." + f.name()] = value;
   }
   std::string out;

@@ -34,7 +34,7 @@ namespace relight {
 // What a string option holds; input paths enter cache keys by content.
 enum class PathRole {
   kNone,       // a plain string
-  kInputFile,  // an existing file; its content digest enters the cache key
+  kInputFile,  // an existing file (or a list of them); content digests enter the cache key
   kInputDir,   // an existing folder; the digest of all its files enters the key
   kInputAny,   // an existing file or folder
   kOutput,     // a path the stage writes; never part of the key
@@ -78,6 +78,11 @@ class OptionField {
   std::string ValueText() const;
   // String value of a path/string option (empty for other types).
   std::string StringValue() const;
+  // The paths of a path option (single or list); empty entries omitted.
+  std::vector<std::string> PathValues() const;
+  // Makes relative paths of a path option absolute against `base_dir`.
+  void ResolvePaths(const std::string& base_dir);
+  const Target& target() const { return target_; }
   void SetStringValue(const std::string& value);
 
   // Set from a YAML scalar or sequence; `where` is "file:line" for messages.

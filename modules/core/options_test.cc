@@ -15,6 +15,7 @@ struct DemoOptions {
   std::string mode = "fast";
   std::string mesh;
   std::vector<double> rgb = {1, 1, 1};
+  std::vector<std::string> maps;
   int threads = 0;
   void Declare(OptionTable* t) {
     t->Add("count", &count, "How many.").Min(1).Max(100);
@@ -23,6 +24,7 @@ struct DemoOptions {
     t->Add("mode", &mode, "Mode.").Choices({"fast", "exact"});
     t->Add("mesh", &mesh, "Mesh.").InputFile();
     t->Add("rgb", &rgb, "Colour.").Size(3);
+    t->Add("maps", &maps, "Maps.").InputFile();
     t->Add("threads", &threads, "Threads.").NotInKey();
   }
 };
@@ -42,7 +44,7 @@ TEST(OptionsTest, CanonicalTextIsSortedAndExcludesNotInKey) {
   OptionTable t = MakeOptionTable("demo", &o);
   const std::string text = t.CanonicalText(NoDigest);
   EXPECT_EQ(text,
-            "demo.count=16\ndemo.flag=false\ndemo.mesh=<none>\ndemo.mode=fast\ndemo.rgb=[1, 1, 1]\n"
+            "demo.count=16\ndemo.flag=false\ndemo.maps=[]\ndemo.mesh=<none>\ndemo.mode=fast\ndemo.rgb=[1, 1, 1]\n"
             "demo.scale=0.5\n");
   o.threads = 8;  // not in key
   EXPECT_EQ(t.CanonicalText(NoDigest), text);
@@ -55,6 +57,10 @@ TEST(OptionsTest, InputPathsEnterKeyByDigest) {
   OptionTable t = MakeOptionTable("demo", &o);
   o.mesh = "/a/b.ply";
   EXPECT_NE(t.CanonicalText(NoDigest).find("demo.mesh=sha256:digest(/a/b.ply)"), std::string::npos);
+  t.ApplyYaml(YAML::Load("maps: [x.hdr, /abs/y.exr]"), "c.yaml", "/cfg");
+  EXPECT_EQ(o.maps, (std::vector<std::string>{"/cfg/x.hdr", "/abs/y.exr"}));
+  EXPECT_NE(t.CanonicalText(NoDigest).find("demo.maps=[sha256:digest(/cfg/x.hdr), sha256:digest(/abs/y.exr)]"),
+            std::string::npos);
 }
 
 TEST(OptionsTest, YamlValuesParsedAndValidated) {
