@@ -1,53 +1,43 @@
 // The project's stage graph, in execution order. Each entry names the stage's
 // options type (from its module's *_options.h, header-only), the stages whose
-// outputs it reads (`--input NAME=DIR`), and when it is skipped. A stage whose
-// module is not in the tree is left out, so the graph builds at every step.
+// outputs it reads (`--input NAME=DIR`), and when it is skipped. CMake defines
+// RELIGHT_HAVE_<STAGE> for every stage whose module and executable are in the
+// tree (pipeline/CMakeLists.txt), so the graph builds at every step.
 #include "pipeline/stage_graph.h"
 
-#if __has_include("synth/synthesize_options.h")
+#ifdef RELIGHT_HAVE_SYNTHESIZE
 #include "synth/synthesize_options.h"
-#define RELIGHT_HAVE_SYNTHESIZE 1
 #endif
 #include "ingest/ingest_options.h"
-#if __has_include("sfm/sfm_options.h")
+#ifdef RELIGHT_HAVE_SFM
 #include "sfm/sfm_options.h"
-#define RELIGHT_HAVE_SFM 1
 #endif
-#if __has_include("mvs/mvs_options.h")
+#ifdef RELIGHT_HAVE_MVS
 #include "mvs/mvs_options.h"
-#define RELIGHT_HAVE_MVS 1
 #endif
-#if __has_include("meshing/mesh_options.h")
+#ifdef RELIGHT_HAVE_MESH
 #include "meshing/mesh_options.h"
-#define RELIGHT_HAVE_MESH 1
 #endif
-#if __has_include("radiometry/linearize_options.h")
+#ifdef RELIGHT_HAVE_LINEARIZE
 #include "radiometry/linearize_options.h"
-#define RELIGHT_HAVE_LINEARIZE 1
 #endif
-#if __has_include("visibility/visibility_options.h")
+#ifdef RELIGHT_HAVE_VISIBILITY
 #include "visibility/visibility_options.h"
-#define RELIGHT_HAVE_VISIBILITY 1
 #endif
-#if __has_include("observe/observe_options.h")
+#ifdef RELIGHT_HAVE_OBSERVE
 #include "observe/observe_options.h"
-#define RELIGHT_HAVE_OBSERVE 1
 #endif
-#if __has_include("solver/inverse_options.h")
+#ifdef RELIGHT_HAVE_INVERSE
 #include "solver/inverse_options.h"
-#define RELIGHT_HAVE_INVERSE 1
 #endif
-#if __has_include("relight/relight_options.h")
+#ifdef RELIGHT_HAVE_RELIGHT
 #include "relight/relight_options.h"
-#define RELIGHT_HAVE_RELIGHT 1
 #endif
-#if __has_include("evaluate/evaluate_options.h")
+#ifdef RELIGHT_HAVE_EVALUATE
 #include "evaluate/evaluate_options.h"
-#define RELIGHT_HAVE_EVALUATE 1
 #endif
-#if __has_include("report/report_options.h")
+#ifdef RELIGHT_HAVE_REPORT
 #include "report/report_options.h"
-#define RELIGHT_HAVE_REPORT 1
 #endif
 
 namespace relight::pipeline {
