@@ -1,0 +1,52 @@
+// The observation table exchanged between `observe`, `inverse` and `evaluate`
+// (`observations.bin`, docs/FORMATS.md) and the photo list beside it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "geometry/camera.h"
+#include "geometry/reconstruction.h"
+
+namespace relight {
+
+// One measurement y of the method: vertex `vertex` seen in photo `photo`.
+struct Observation {
+  uint32_t photo = 0;
+  uint32_t vertex = 0;
+  float rgb[3] = {0, 0, 0};         // linear radiance
+  float confidence = 0;             // alpha_y in [0, 1]
+  float view_local[3] = {0, 0, 1};  // unit direction to the camera, vertex's local frame (sphere/frame.h)
+};
+
+struct ObservationSet {
+  uint32_t num_photos = 0;
+  uint32_t num_vertices = 0;
+  std::vector<Observation> records;  // sorted by photo, then vertex
+};
+
+// A photo as the observations index it.
+struct ObservedPhoto {
+  uint32_t index = 0;
+  std::string name;          // image name in the SfM model (= ingest file name)
+  std::string linear;        // linear image, relative to the linearize output folder
+  Camera camera;             // intrinsics at the linear image's resolution
+  ImageRecord pose;          // cam_from_world
+  uint32_t observed_vertices = 0;
+  double mean_confidence = 0;
+};
+
+inline constexpr char kObservationsMagic[8] = {'R', 'L', 'O', 'B', 'S', 0, 0, 0};
+inline constexpr uint32_t kObservationsVersion = 1;
+
+// Writes atomically. Throws UserError naming the file on I/O failure.
+void WriteObservations(const std::string& path, const ObservationSet& set);
+// Reads and validates (magic, version, sizes, indices). Throws UserError naming the file.
+ObservationSet ReadObservations(const std::string& path);
+
+// photos.json beside observations.bin.
+void WriteObservedPhotos(const std::string& path, const std::vector<ObservedPhoto>& photos);
+std::vector<ObservedPhoto> ReadObservedPhotos(const std::string& path);
+
+}  // namespace relight

@@ -1,0 +1,329 @@
+#include "observe/observe.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/json.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "core/timer.h"
+#include "geometry/mesh_io.h"
+#include "sphere/frame.h"
+
+namespace relight {
+namespace fs = std::filesystem;
+
+Image RenderDepthMap(const RayCaster& caster, const Camera& camera, const ImageRecord& pose) {
+  Image depth(camera.width, camera.height, 1, 0.0f);
+  const Eigen::Matrix3d world_from_cam = pose.CamFromWorldRotation().transpose();
+  const Eigen::Vector3f center = pose.ProjectionCenter().cast<float>();
+  tbb::parallel_for(0, camera.height, [&](int y) {
+    std::vector<Ray> rays(camera.width);
+    std::vector<Eigen::Vector3d> dirs_cam(camera.width);
+    for (int x = 0; x < camera.width; ++x) {
+      dirs_cam[x] = camera.RayFromImage({x + 0.5, y + 0.5});
+      rays[x] = Ray{center, (world_from_cam * dirs_cam[x]).cast<float>()};
+    }
+    std::vector<RayHit> hits;
+    caster.IntersectStream(rays, true, &hits);
+    for (int x = 0; x < camera.width; ++x) {
+      if (hits[x].hit) depth.at(x, y) = static_cast<float>(hits[x].t * dirs_cam[x].z());
+    }
+  });
+  return depth;
+}
+
+Image DepthEdgeDistance(const Image& depth, double relative_jump) {
+  cv::Mat non_edge(depth.height, depth.width, CV_8U, cv::Scalar(255));
+  auto is_edge_pair = [&](float a, float b) {
+    if ((a > 0) != (b > 0)) return true;  // silhouette
+    if (a <= 0) return false;             // both background
+    return std::abs(a - b) > relative_jump * std::min(a, b);
+  };
+  for (int y = 0; y < depth.height; ++y) {
+    for (int x = 0; x < depth.width; ++x) {
+      const float d = depth.at(x, y);
+      if (d <= 0) continue;  // background pixels are not observed anyway
+      bool edge = x == 0 || y == 0 || x == depth.width - 1 || y == depth.height - 1;
+      if (!edge) {
+        edge = is_edge_pair(d, depth.at(x - 1, y)) || is_edge_pair(d, depth.at(x + 1, y)) ||
+               is_edge_pair(d, depth.at(x, y - 1)) || is_edge_pair(d, depth.at(x, y + 1));
+      }
+      if (edge) non_edge.at<uint8_t>(y, x) = 0;
+    }
+  }
+  cv::Mat dist;
+  cv::distanceTransform(non_edge, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  Image out(depth.width, depth.height, 1);
+  for (int y = 0; y < depth.height; ++y)
+    for (int x = 0; x < depth.width; ++x) out.at(x, y) = dist.at<float>(y, x);
+  return out;
+}
+
+std::vector<float> VertexFootprintRadius(const TriangleMesh& mesh) {
+  std::vector<double> area(mesh.num_vertices(), 0.0);
+  for (size_t f = 0; f < mesh.num_faces(); ++f) {
+    const double a = mesh.FaceArea(static_cast<int>(f)) / 3.0;
+    for (int k = 0; k < 3; ++k) area[mesh.faces[f][k]] += a;
+  }
+  std::vector<float> r(mesh.num_vertices());
+  for (size_t i = 0; i < r.size(); ++i) r[i] = static_cast<float>(std::sqrt(area[i] / M_PI));
+  return r;
+}
+
+namespace {
+
+// Premultiplied (radiance × confidence, confidence) pyramid for footprint sampling.
+struct Pyramid {
+  std::vector<Image> weighted;    // RGB, radiance × confidence
+  std::vector<Image> confidence;  // 1 channel
+
+  Pyramid(const Image& radiance, const Image& conf, int max_levels = 6) {
+    Image w(radiance.width, radiance.height, 3);
+    for (int y = 0; y < radiance.height; ++y)
+      for (int x = 0; x < radiance.width; ++x)
+        for (int c = 0; c < 3; ++c) w.at(x, y, c) = radiance.at(x, y, c) * conf.at(x, y);
+    weighted.push_back(std::move(w));
+    confidence.push_back(conf);
+    while (static_cast<int>(weighted.size()) < max_levels && weighted.back().width >= 8 &&
+           weighted.back().height >= 8) {
+      weighted.push_back(Half(weighted.back()));
+      confidence.push_back(Half(confidence.back()));
+    }
+  }
+  static Image Half(const Image& in) {
+    Image out(in.width / 2, in.height / 2, in.channels);
+    for (int y = 0; y < out.height; ++y)
+      for (int x = 0; x < out.width; ++x)
+        for (int c = 0; c < in.channels; ++c)
+          out.at(x, y, c) = 0.25f * (in.at(2 * x, 2 * y, c) + in.at(2 * x + 1, 2 * y, c) +
+                                     in.at(2 * x, 2 * y + 1, c) + in.at(2 * x + 1, 2 * y + 1, c));
+    return out;
+  }
+
+  // Confidence-weighted mean colour over a disc of `radius_px` (level-0 pixels)
+  // around `center_px`; returns the mean confidence over the disc.
+  double Sample(const Eigen::Vector2d& center_px, double radius_px, float rgb[3]) const {
+    int level = 0;
+    while (level + 1 < static_cast<int>(weighted.size()) && radius_px / (1 << (level + 1)) >= 1.5) ++level;
+    const double s = 1.0 / (1 << level);
+    const double r = radius_px * s;
+    const int k = std::clamp(static_cast<int>(std::ceil(r)), 1, 3);
+    double sum_w[3] = {0, 0, 0}, sum_c = 0;
+    int n = 0;
+    for (int j = -k; j <= k; ++j) {
+      for (int i = -k; i <= k; ++i) {
+        const double dx = r * i / k, dy = r * j / k;
+        if (dx * dx + dy * dy > r * r + 1e-9) continue;
+        const double x = center_px.x() * s + dx, y = center_px.y() * s + dy;
+        float w[3], c;
+        SampleBilinear(weighted[level], x, y, w);
+        SampleBilinear(confidence[level], x, y, &c);
+        for (int q = 0; q < 3; ++q) sum_w[q] += w[q];
+        sum_c += c;
+        ++n;
+      }
+    }
+    if (sum_c <= 1e-9) return 0.0;
+    for (int q = 0; q < 3; ++q) rgb[q] = static_cast<float>(sum_w[q] / sum_c);
+    return sum_c / n;
+  }
+};
+
+double Ramp(double x, double zero_at, double one_at) {
+  if (one_at == zero_at) return x >= one_at ? 1.0 : 0.0;
+  return std::clamp((x - zero_at) / (one_at - zero_at), 0.0, 1.0);
+}
+
+}  // namespace
+
+std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vector<float>& footprint_radius,
+                                      const RayCaster& caster, const PhotoView& photo, uint32_t photo_index,
+                                      const ObserveOptions& o) {
+  RELIGHT_CHECK(mesh.normals.size() == mesh.vertices.size()) << "observe needs vertex normals";
+  RELIGHT_CHECK(photo.radiance->width == photo.camera.width && photo.radiance->height == photo.camera.height);
+  const Image depth = RenderDepthMap(caster, photo.camera, photo.pose);
+  const Image edge_distance = DepthEdgeDistance(depth, o.depth_edge_jump);
+  const Pyramid pyramid(*photo.radiance, *photo.confidence);
+  const Eigen::Vector3d center = photo.pose.ProjectionCenter();
+  const double edge_tolerance = 0.5 * mesh.MeanEdgeLength();
+  const double cos_zero = std::cos(o.grazing_min_deg * M_PI / 180.0);
+  const double focal = std::sqrt(photo.camera.FocalX() * photo.camera.FocalY());
+  const int w = photo.camera.width, h = photo.camera.height;
+
+  std::vector<Observation> slots(mesh.num_vertices());
+  std::vector<uint8_t> valid(mesh.num_vertices(), 0);
+  tbb::parallel_for(size_t(0), mesh.num_vertices(), [&](size_t v) {
+    const Eigen::Vector3d x = mesh.vertices[v].cast<double>();
+    const Eigen::Vector3d n = mesh.normals[v].cast<double>();
+    const Eigen::Vector3d to_camera = center - x;
+    const double dist = to_camera.norm();
+    if (dist <= 0) return;
+    const Eigen::Vector3d view = to_camera / dist;
+    const double cos_view = n.dot(view);
+    if (cos_view <= cos_zero) return;  // back-facing or too grazing
+    const Eigen::Vector3d p_cam = photo.pose.CamFromWorld(x);
+    if (p_cam.z() <= 0) return;
+    const Eigen::Vector2d px = photo.camera.ImageFromCamera(p_cam);
+    if (px.x() < o.border_margin_px || px.y() < o.border_margin_px || px.x() > w - o.border_margin_px ||
+        px.y() > h - o.border_margin_px) {
+      return;
+    }
+    const int ix = std::clamp(static_cast<int>(px.x()), 0, w - 1), iy = std::clamp(static_cast<int>(px.y()), 0, h - 1);
+    const double d = depth.at(ix, iy);
+    if (d <= 0 || std::abs(d - p_cam.z()) > o.depth_tolerance * p_cam.z() + edge_tolerance) return;  // occluded
+    const double radius_px =
+        std::max(0.5, o.footprint_scale * focal * footprint_radius[v] * std::sqrt(cos_view) / p_cam.z());
+    const double edge_factor =
+        o.edge_margin_px > 0 ? Ramp(edge_distance.at(ix, iy) - radius_px, 0.0, o.edge_margin_px) : 1.0;
+    if (edge_factor <= 0) return;
+    Observation obs;
+    const double pixel_confidence = pyramid.Sample(px, radius_px, obs.rgb);
+    const double angle_deg = std::acos(std::min(1.0, cos_view)) * 180.0 / M_PI;
+    const double confidence = pixel_confidence * Ramp(angle_deg, o.grazing_min_deg, o.grazing_full_deg) * edge_factor;
+    if (confidence < o.min_confidence || confidence <= 0) return;
+    obs.photo = photo_index;
+    obs.vertex = static_cast<uint32_t>(v);
+    obs.confidence = static_cast<float>(confidence);
+    const Eigen::Vector3d local = FrameFromNormal<double>(n).ToLocal(view);
+    for (int k = 0; k < 3; ++k) obs.view_local[k] = static_cast<float>(local[k]);
+    slots[v] = obs;
+    valid[v] = 1;
+  });
+  std::vector<Observation> out;
+  for (size_t v = 0; v < slots.size(); ++v)
+    if (valid[v]) out.push_back(slots[v]);
+  return out;
+}
+
+ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_dir, const std::string& mesh_dir,
+                          const std::string& linearize_dir, const std::string& output_dir) {
+  Timer timer;
+  ObserveSummary summary;
+  const Reconstruction model = Reconstruction::Read(JoinPath(sfm_dir, "sparse"));
+  TriangleMesh mesh = ReadMesh(JoinPath(mesh_dir, "mesh.ply"));
+  if (mesh.empty()) RELIGHT_USER_ERROR() << "'" << mesh_dir << "/mesh.ply' has no faces; check the mesh stage";
+  if (mesh.normals.size() != mesh.num_vertices()) mesh.ComputeVertexNormals();
+  TriangleMesh occluders;
+  const std::string occluders_path = JoinPath(mesh_dir, "occluders.ply");
+  if (fs::exists(occluders_path)) occluders = ReadMesh(occluders_path);
+  std::vector<const TriangleMesh*> scene{&mesh};
+  if (!occluders.empty()) scene.push_back(&occluders);
+  const RayCaster caster(scene);
+  const std::vector<float> footprint = VertexFootprintRadius(mesh);
+
+  // Photos: registered images that have a linear image, in name order.
+  std::vector<const ImageRecord*> images;
+  for (const auto& [id, im] : model.images) {
+    const std::string stem = fs::path(im.name).stem().string();
+    if (fs::exists(JoinPath(linearize_dir, "linear/" + stem + ".exr"))) {
+      images.push_back(&im);
+    } else {
+      RLOG_WARN("registered photo '{}' has no linear image in {}; it is not used", im.name, linearize_dir);
+    }
+  }
+  std::sort(images.begin(), images.end(), [](const ImageRecord* a, const ImageRecord* b) { return a->name < b->name; });
+  if (images.empty()) {
+    RELIGHT_USER_ERROR() << "no registered photo of '" << sfm_dir << "/sparse' has a linear image in '"
+                         << linearize_dir << "'; the sfm and linearize stages disagree on photo names";
+  }
+  summary.photos = static_cast<int>(images.size());
+  EnsureDir(JoinPath(output_dir, "per_photo"));
+
+  std::vector<ObservedPhoto> photos(images.size());
+  std::vector<std::vector<Observation>> per_photo(images.size());
+  Progress progress("observe photos", summary.photos);
+  for (size_t i = 0; i < images.size(); ++i) {
+    const ImageRecord& im = *images[i];
+    const std::string stem = fs::path(im.name).stem().string();
+    ObservedPhoto& p = photos[i];
+    p.index = static_cast<uint32_t>(i);
+    p.name = im.name;
+    p.linear = "linear/" + stem + ".exr";
+    p.pose = im;
+    const std::string cache = JoinPath(output_dir, "per_photo/" + std::to_string(i) + "_" + stem + ".bin");
+    const Image radiance = ReadImage(JoinPath(linearize_dir, p.linear));
+    p.camera = model.cameras.at(im.camera_id);
+    if (p.camera.width != radiance.width || p.camera.height != radiance.height) {
+      const double sx = double(radiance.width) / p.camera.width, sy = double(radiance.height) / p.camera.height;
+      if (std::abs(sx - sy) > 0.01 * sx) {
+        RELIGHT_USER_ERROR() << "photo '" << im.name << "': the camera is " << p.camera.width << "x" << p.camera.height
+                             << " but the linear image is " << radiance.width << "x" << radiance.height
+                             << "; the photo was cropped after SfM — rerun from ingest";
+      }
+      p.camera.Rescale(sx);
+      p.camera.width = radiance.width;
+      p.camera.height = radiance.height;
+    }
+    if (fs::exists(cache)) {
+      per_photo[i] = ReadObservations(cache).records;  // finished by an earlier, killed run
+      ++summary.reused_photos;
+    } else {
+      const Image confidence = ReadImage(JoinPath(linearize_dir, "confidence/" + stem + ".exr"));
+      PhotoView view{p.camera, im, &radiance, &confidence};
+      per_photo[i] = ObservePhoto(mesh, footprint, caster, view, p.index, options);
+      ObservationSet one{static_cast<uint32_t>(images.size()), static_cast<uint32_t>(mesh.num_vertices()), per_photo[i]};
+      WriteObservations(cache, one);
+    }
+    double conf = 0;
+    for (const auto& o : per_photo[i]) conf += o.confidence;
+    p.observed_vertices = static_cast<uint32_t>(per_photo[i].size());
+    p.mean_confidence = per_photo[i].empty() ? 0.0 : conf / per_photo[i].size();
+    if (p.observed_vertices == 0) RLOG_WARN("photo '{}' observes no vertex of the mesh", im.name);
+    progress.Advance();
+  }
+  progress.Finish();
+
+  ObservationSet all;
+  all.num_photos = static_cast<uint32_t>(images.size());
+  all.num_vertices = static_cast<uint32_t>(mesh.num_vertices());
+  std::vector<int> per_vertex(mesh.num_vertices(), 0);
+  for (const auto& records : per_photo) {
+    for (const auto& o : records) {
+      all.records.push_back(o);
+      ++per_vertex[o.vertex];
+    }
+  }
+  WriteObservations(JoinPath(output_dir, "observations.bin"), all);
+  WriteObservedPhotos(JoinPath(output_dir, "photos.json"), photos);
+  summary.observations = all.records.size();
+  summary.unobserved_vertices = std::count(per_vertex.begin(), per_vertex.end(), 0);
+
+  OrderedJson coverage;
+  coverage["vertices"] = mesh.num_vertices();
+  coverage["observations"] = summary.observations;
+  coverage["unobserved_vertices"] = summary.unobserved_vertices;
+  std::map<int, int> histogram;
+  for (int c : per_vertex) ++histogram[std::min(c, 20)];
+  Json hist = Json::object();
+  for (const auto& [k, v] : histogram) hist[k == 20 ? "20+" : std::to_string(k)] = v;
+  coverage["photos_per_vertex_histogram"] = hist;
+  Json per = Json::array();
+  for (const auto& p : photos) {
+    per.push_back({{"name", p.name},
+                   {"observed_vertices", p.observed_vertices},
+                   {"observed_fraction", double(p.observed_vertices) / std::max<size_t>(1, mesh.num_vertices())},
+                   {"mean_confidence", p.mean_confidence}});
+  }
+  coverage["photos"] = per;
+  summary.seconds = timer.Seconds();
+  coverage["reused_photos"] = summary.reused_photos;
+  coverage["seconds"] = summary.seconds;
+  WriteJsonAtomic(JoinPath(output_dir, "coverage.json"), coverage);
+  RLOG_INFO("{} observations of {} vertices in {} photos ({} vertices unobserved) in {:.1f} s", summary.observations,
+            mesh.num_vertices(), summary.photos, summary.unobserved_vertices, summary.seconds);
+  if (summary.unobserved_vertices > mesh.num_vertices() / 2) {
+    RLOG_WARN("more than half of the vertices are seen in no photo; is the mesh in the SfM frame?");
+  }
+  return summary;
+}
+
+}  // namespace relight

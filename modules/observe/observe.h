@@ -1,0 +1,63 @@
+// The `observe` stage: the measurements y of the method (Haber et al. 2009,
+// §4.3, eq. 9) with their confidences alpha_y. For each photo a depth map is
+// ray cast with Embree; a vertex is observed when it lies in the frustum, faces
+// the camera and agrees with the depth map. Its colour is the confidence-
+// weighted mean of the linear photo over a footprint matching the vertex's
+// projected share of the surface (an image pyramid keeps that O(1) per vertex).
+// Its confidence multiplies: the unclipped fraction of the footprint (linearize),
+// a ramp on the view angle (low at grazing angles) and a ramp on the distance
+// to silhouettes and depth discontinuities.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "geometry/camera.h"
+#include "geometry/mesh.h"
+#include "geometry/raycaster.h"
+#include "geometry/reconstruction.h"
+#include "image/image.h"
+#include "observe/observations.h"
+#include "observe/observe_options.h"
+
+namespace relight {
+
+// Camera-space depth (z) per pixel by ray casting; 0 where no surface is hit.
+Image RenderDepthMap(const RayCaster& caster, const Camera& camera, const ImageRecord& pose);
+
+// Distance (pixels) from each pixel to the nearest silhouette or depth discontinuity
+// (relative jump above `relative_jump` between 4-neighbours).
+Image DepthEdgeDistance(const Image& depth, double relative_jump);
+
+// Per-vertex radius (world units) of a disc with the vertex's share (1/3 of
+// its incident faces) of the surface area.
+std::vector<float> VertexFootprintRadius(const TriangleMesh& mesh);
+
+// One photo ready for observation.
+struct PhotoView {
+  Camera camera;        // at the radiance image's resolution
+  ImageRecord pose;
+  const Image* radiance = nullptr;    // linear RGB
+  const Image* confidence = nullptr;  // 1 channel
+};
+
+// Observations of the mesh's vertices (normals required) in one photo.
+std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vector<float>& footprint_radius,
+                                      const RayCaster& caster, const PhotoView& photo, uint32_t photo_index,
+                                      const ObserveOptions& options);
+
+struct ObserveSummary {
+  int photos = 0;
+  int reused_photos = 0;           // finished by an earlier, killed run
+  size_t observations = 0;
+  size_t unobserved_vertices = 0;  // vertices seen in no photo
+  double seconds = 0;
+};
+
+// Runs the stage: reads <sfm>/sparse, <mesh>/mesh.ply (+ occluders.ply),
+// <linearize>/linear and confidence; writes observations.bin, photos.json,
+// coverage.json into `output_dir`.
+ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_dir, const std::string& mesh_dir,
+                          const std::string& linearize_dir, const std::string& output_dir);
+
+}  // namespace relight

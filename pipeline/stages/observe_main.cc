@@ -1,0 +1,9 @@
+// Stage executable `observe` (see modules/observe/observe.h).
+#include "observe/observe.h"
+
+int main(int argc, char** argv) {
+  using namespace relight;
+  return StageMain<ObserveOptions>(argc, argv, kObserveStage, [](const ObserveOptions& options, const StageContext& ctx) {
+    RunObserve(options, ctx.Input("sfm"), ctx.Input("mesh"), ctx.Input("linearize"), ctx.output_dir);
+  });
+}
