@@ -89,7 +89,8 @@ const std::vector<StageDef>& AllStages() {
     s.push_back({kObserveStage, "", {"sfm", "mesh", "linearize"}, Make<ObserveOptions>(kObserveStage), nullptr});
 #endif
 #ifdef RELIGHT_HAVE_INVERSE
-    s.push_back({kInverseStage, "", {"mesh", "visibility", "observe"}, Make<InverseOptions>(kInverseStage), nullptr});
+    s.push_back({kInverseStage, "", {"ingest", "mesh", "visibility", "observe"}, Make<InverseOptions>(kInverseStage),
+                 nullptr});
 #endif
 #ifdef RELIGHT_HAVE_RELIGHT
     s.push_back({kRelightStage, "", {"ingest", "sfm", "mesh", "inverse"}, Make<RelightOptions>(kRelightStage),

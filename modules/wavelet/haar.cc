@@ -1,0 +1,206 @@
+#include "wavelet/haar.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "core/error.h"
+
+namespace relight {
+
+int Log2(int n) {
+  RELIGHT_CHECK(n > 0 && (n & (n - 1)) == 0) << n << " is not a power of two";
+  int l = 0;
+  while ((1 << l) < n) ++l;
+  return l;
+}
+
+HaarNode DecodeHaarIndex(uint32_t index, int n) {
+  const int r = int(index / uint32_t(n)), c = int(index % uint32_t(n));
+  HaarNode node;
+  if (r == 0 && c == 0) return node;
+  const int m = std::max(r, c);
+  int l = 0;
+  while ((2 << l) <= m) ++l;
+  const int s = 1 << l;
+  node.level = l;
+  if (r < s) {
+    node.type = HaarType::kDx;
+    node.a = c - s;
+    node.b = r;
+  } else if (c < s) {
+    node.type = HaarType::kDy;
+    node.a = c;
+    node.b = r - s;
+  } else {
+    node.type = HaarType::kDxy;
+    node.a = c - s;
+    node.b = r - s;
+  }
+  return node;
+}
+
+uint32_t HaarIndex(HaarType type, int level, int a, int b, int n) {
+  const int s = 1 << level;
+  switch (type) {
+    case HaarType::kDx:
+      return uint32_t(b) * n + s + a;
+    case HaarType::kDy:
+      return uint32_t(s + b) * n + a;
+    case HaarType::kDxy:
+      return uint32_t(s + b) * n + s + a;
+    case HaarType::kScaling:
+      break;
+  }
+  return 0;
+}
+
+template <typename T>
+void HaarForward(const T* pixels, int n, T* coeffs) {
+  Log2(n);
+  if (coeffs != pixels) std::copy(pixels, pixels + size_t(n) * n, coeffs);
+  thread_local std::vector<T> tmp;
+  tmp.resize(size_t(n) * n);
+  for (int size = n; size > 1; size /= 2) {
+    const int half = size / 2;
+    for (int b = 0; b < half; ++b) {
+      const T* r0 = coeffs + size_t(2 * b) * n;
+      const T* r1 = r0 + n;
+      T* avg = tmp.data() + size_t(b) * size;
+      T* dy = tmp.data() + size_t(half + b) * size;
+      for (int a = 0; a < half; ++a) {
+        const T p00 = r0[2 * a], p01 = r0[2 * a + 1], p10 = r1[2 * a], p11 = r1[2 * a + 1];
+        avg[a] = T(0.5) * (p00 + p01 + p10 + p11);
+        avg[half + a] = T(0.5) * (p00 - p01 + p10 - p11);
+        dy[a] = T(0.5) * (p00 + p01 - p10 - p11);
+        dy[half + a] = T(0.5) * (p00 - p01 - p10 + p11);
+      }
+    }
+    for (int r = 0; r < size; ++r)
+      std::copy(tmp.data() + size_t(r) * size, tmp.data() + size_t(r + 1) * size, coeffs + size_t(r) * n);
+  }
+}
+
+template <typename T>
+void HaarInverse(const T* coeffs, int n, T* pixels) {
+  Log2(n);
+  if (coeffs != pixels) std::copy(coeffs, coeffs + size_t(n) * n, pixels);
+  thread_local std::vector<T> tmp;
+  tmp.resize(size_t(n) * n);
+  for (int size = 2; size <= n; size *= 2) {
+    const int half = size / 2;
+    for (int b = 0; b < half; ++b) {
+      const T* avg = pixels + size_t(b) * n;
+      const T* dy = pixels + size_t(half + b) * n;
+      T* r0 = tmp.data() + size_t(2 * b) * size;
+      T* r1 = r0 + size;
+      for (int a = 0; a < half; ++a) {
+        const T m = avg[a], x = avg[half + a], y = dy[a], xy = dy[half + a];
+        r0[2 * a] = T(0.5) * (m + x + y + xy);
+        r0[2 * a + 1] = T(0.5) * (m - x + y - xy);
+        r1[2 * a] = T(0.5) * (m + x - y - xy);
+        r1[2 * a + 1] = T(0.5) * (m - x - y + xy);
+      }
+    }
+    for (int r = 0; r < size; ++r)
+      std::copy(tmp.data() + size_t(r) * size, tmp.data() + size_t(r + 1) * size, pixels + size_t(r) * n);
+  }
+}
+
+template <typename T>
+double BasicSparseCoefficients<T>::Energy() const {
+  double e = 0;
+  for (const T& v : value) e += double(v) * double(v);
+  return e;
+}
+
+template <typename T>
+template <typename U>
+void BasicSparseCoefficients<T>::ToDense(U* dense) const {
+  std::fill(dense, dense + size_t(n) * n, U(0));
+  for (size_t k = 0; k < index.size(); ++k) dense[index[k]] = U(value[k]);
+}
+
+template <typename T>
+BasicSparseCoefficients<T> SparseFromDense(const T* coeffs, int n, double threshold) {
+  BasicSparseCoefficients<T> out;
+  out.n = n;
+  for (uint32_t k = 0; k < uint32_t(n) * n; ++k) {
+    if (coeffs[k] != T(0) && std::abs(double(coeffs[k])) > threshold) {
+      out.index.push_back(k);
+      out.value.push_back(coeffs[k]);
+    }
+  }
+  return out;
+}
+
+template <typename T>
+std::vector<uint32_t> IndicesByMagnitude(const T* coeffs, int n) {
+  std::vector<uint32_t> order(size_t(n) * n);
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](uint32_t x, uint32_t y) { return std::abs(coeffs[x]) > std::abs(coeffs[y]); });
+  return order;
+}
+
+namespace {
+template <typename T>
+BasicSparseCoefficients<T> Gather(const T* coeffs, int n, std::vector<uint32_t> kept) {
+  std::sort(kept.begin(), kept.end());
+  BasicSparseCoefficients<T> out;
+  out.n = n;
+  for (uint32_t k : kept) {
+    if (coeffs[k] == T(0)) continue;
+    out.index.push_back(k);
+    out.value.push_back(coeffs[k]);
+  }
+  return out;
+}
+}  // namespace
+
+template <typename T>
+BasicSparseCoefficients<T> KeepLargest(const T* coeffs, int n, size_t k) {
+  const size_t total = size_t(n) * n;
+  k = std::min(k, total);
+  std::vector<uint32_t> order(total);
+  std::iota(order.begin(), order.end(), 0u);
+  auto larger = [&](uint32_t x, uint32_t y) {
+    const T ax = std::abs(coeffs[x]), ay = std::abs(coeffs[y]);
+    return ax > ay || (ax == ay && x < y);
+  };
+  std::nth_element(order.begin(), order.begin() + k, order.end(), larger);
+  order.resize(k);
+  return Gather(coeffs, n, std::move(order));
+}
+
+template <typename T>
+BasicSparseCoefficients<T> KeepEnergy(const T* coeffs, int n, double fraction) {
+  RELIGHT_CHECK(fraction > 0 && fraction <= 1) << "energy fraction " << fraction;
+  const std::vector<uint32_t> order = IndicesByMagnitude(coeffs, n);
+  double total = 0;
+  for (uint32_t k : order) total += double(coeffs[k]) * double(coeffs[k]);
+  std::vector<uint32_t> kept;
+  double energy = 0;
+  for (uint32_t k : order) {
+    if (energy >= fraction * total) break;
+    energy += double(coeffs[k]) * double(coeffs[k]);
+    kept.push_back(k);
+  }
+  return Gather(coeffs, n, std::move(kept));
+}
+
+#define RELIGHT_INSTANTIATE_HAAR(T)                                              \
+  template void HaarForward<T>(const T*, int, T*);                               \
+  template void HaarInverse<T>(const T*, int, T*);                               \
+  template struct BasicSparseCoefficients<T>;                                    \
+  template void BasicSparseCoefficients<T>::ToDense<float>(float*) const;        \
+  template void BasicSparseCoefficients<T>::ToDense<double>(double*) const;      \
+  template BasicSparseCoefficients<T> SparseFromDense<T>(const T*, int, double); \
+  template BasicSparseCoefficients<T> KeepLargest<T>(const T*, int, size_t);     \
+  template BasicSparseCoefficients<T> KeepEnergy<T>(const T*, int, double);      \
+  template std::vector<uint32_t> IndicesByMagnitude<T>(const T*, int);
+
+RELIGHT_INSTANTIATE_HAAR(float)
+RELIGHT_INSTANTIATE_HAAR(double)
+
+}  // namespace relight
