@@ -3,12 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <map>
 
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/log.h"
 #include "geometry/mesh_io.h"
+#include "geometry/primitives.h"
 #include "sphere/octahedral.h"
 #include "testing/testing.h"
 
@@ -20,44 +20,6 @@ TriangleMesh Quad(float x0, float x1, float y0, float y1, float z) {
   TriangleMesh m;
   m.vertices = {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}};
   m.faces = {{0, 1, 2}, {0, 2, 3}};
-  m.ComputeVertexNormals();
-  return m;
-}
-
-TriangleMesh Box(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
-  TriangleMesh m;
-  for (int i = 0; i < 8; ++i)
-    m.vertices.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z());
-  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : quads) {
-    m.faces.emplace_back(q[0], q[1], q[2]);
-    m.faces.emplace_back(q[0], q[2], q[3]);
-  }
-  m.ComputeVertexNormals();
-  return m;
-}
-
-// Octahedron subdivided `levels` times and projected onto the unit sphere.
-TriangleMesh Icosphere(int levels) {
-  TriangleMesh m;
-  m.vertices = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  m.faces = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
-  for (int l = 0; l < levels; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      m.vertices.push_back((m.vertices[a] + m.vertices[b]).normalized());
-      return mid[key] = static_cast<int>(m.vertices.size()) - 1;
-    };
-    std::vector<Eigen::Vector3i> faces;
-    for (const auto& f : m.faces) {
-      const int ab = midpoint(f[0], f[1]), bc = midpoint(f[1], f[2]), ca = midpoint(f[2], f[0]);
-      faces.insert(faces.end(), {{f[0], ab, ca}, {f[1], bc, ab}, {f[2], ca, bc}, {ab, bc, ca}});
-    }
-    m.faces = faces;
-  }
   m.ComputeVertexNormals();
   return m;
 }
@@ -99,7 +61,7 @@ TEST(VisibilityTest, OccluderAboveAPlaneMatchesAnalyticSolidAngle) {
 
 TEST(VisibilityTest, VertexInsideClosedBoxIsFullyOccluded) {
   TriangleMesh floor = Quad(-1, 1, -1, 1, 0);
-  const TriangleMesh box = Box({-2, -2, -1}, {2, 2, 3});
+  const TriangleMesh box = MakeBox({-2, -2, -1}, {2, 2, 3});
   const RayCaster caster({&floor, &box});
   VisibilityOptions o;
   std::vector<float> maps;
@@ -108,7 +70,7 @@ TEST(VisibilityTest, VertexInsideClosedBoxIsFullyOccluded) {
 }
 
 TEST(VisibilityTest, CoarseConvexMeshHasNoSelfShadowAcne) {
-  const TriangleMesh sphere = Icosphere(1);  // 18 vertices, very coarse
+  const TriangleMesh sphere = MakeIcosphere(1);  // 18 vertices, very coarse
   const RayCaster caster({&sphere});
   VisibilityOptions o;
   o.resolution = 16;
@@ -125,7 +87,7 @@ TEST(VisibilityTest, StageWritesSparseHaarAndResumes) {
   setenv("RELIGHT_PROGRESS", "off", 1);
   testing::TempDir dir;
   fs::create_directories(dir / "mesh");
-  TriangleMesh mesh = Icosphere(3);
+  TriangleMesh mesh = MakeIcosphere(3);
   for (auto& v : mesh.vertices) v.z() += 1.05f;  // just above the ground
   mesh.ComputeVertexNormals();
   WriteMeshPly(dir / "mesh/mesh.ply", mesh);

@@ -1,0 +1,432 @@
+#include "solver/inverse.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/json.h"
+#include "core/log.h"
+#include "core/timer.h"
+#include "geometry/mesh_io.h"
+#include "image/image.h"
+#include "solver/lighting.h"
+#include "solver/lobe_spec.h"
+#include "solver/reflectance.h"
+#include "sphere/envmap.h"
+#include "sphere/octahedral.h"
+#include "sphere/sh.h"
+
+namespace relight {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Mean radiance per channel over the sphere and all photos (solid-angle weighted).
+Eigen::Vector3d MeanRadiance(const LightingState& l) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  if (l.values.empty()) return sum;
+  if (l.basis == "haar") {
+    const std::vector<double> omega = OctTexelSolidAngles(l.env_resolution);
+    for (const auto& photo : l.values)
+      for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < l.dim; ++k) sum[c] += photo[c][k] * omega[k];
+    return sum / (4 * M_PI * l.values.size());
+  }
+  for (const auto& photo : l.values)
+    for (int c = 0; c < 3; ++c) sum[c] += photo[c][0] / std::sqrt(4 * M_PI);
+  return sum / double(l.values.size());
+}
+
+Eigen::Vector3d MeanAlbedo(const ReflectanceState& r, const std::vector<char>& observed) {
+  int lambert = -1;
+  for (int b = 0; b < r.num_lobes(); ++b)
+    if (r.basis[b].model == BrdfModel::kLambertian) lambert = b;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double n = 0;
+  if (lambert < 0) return Eigen::Vector3d::Ones();
+  const size_t nv = r.weights.size() / r.num_materials;
+  for (size_t v = 0; v < nv; ++v) {
+    if (!observed[v]) continue;
+    for (int m = 0; m < r.num_materials; ++m)
+      sum += r.weights[v * r.num_materials + m] * r.coefficients[m * r.num_lobes() + lambert];
+    n += 1;
+  }
+  return n > 0 ? Eigen::Vector3d(sum / n) : Eigen::Vector3d::Ones();
+}
+
+// Scales lighting channel c by s_c and materials by 1/s_c (the product is unchanged).
+void ApplyGauge(const Eigen::Vector3d& s, LightingState* l, ReflectanceState* r) {
+  for (auto& photo : l->values)
+    for (int c = 0; c < 3; ++c)
+      for (float& v : photo[c]) v = static_cast<float>(v * s[c]);
+  l->UpdateCoefficients();
+  for (auto& coeff : r->coefficients) coeff = coeff.cwiseQuotient(s);
+}
+
+Eigen::Vector3d GaugeScale(const std::string& gauge, const LightingState& l, const ReflectanceState& r,
+                           const std::vector<char>& observed) {
+  Eigen::Vector3d s = Eigen::Vector3d::Ones();
+  if (gauge == "neutral_light") {
+    const Eigen::Vector3d mean = MeanRadiance(l);
+    for (int c = 0; c < 3; ++c) s[c] = mean[c] > 1e-30 ? 1.0 / mean[c] : 1.0;
+  } else {
+    const Eigen::Vector3d albedo = MeanAlbedo(r, observed);
+    for (int c = 0; c < 3; ++c) s[c] = albedo[c] > 1e-30 ? albedo[c] / 0.5 : 1.0;
+  }
+  return s;
+}
+
+// θ = prev + step (cur − prev), clamped to the feasible set (non-negative).
+void Extrapolate(const LightingState& prev_l, const ReflectanceState& prev_r, double step, LightingState* l,
+                 ReflectanceState* r) {
+  for (size_t i = 0; i < l->values.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      for (size_t k = 0; k < l->values[i][c].size(); ++k) {
+        const float p = prev_l.values[i][c][k];
+        float v = static_cast<float>(p + step * (l->values[i][c][k] - p));
+        if (l->basis == "haar") v = std::max(0.0f, v);
+        l->values[i][c][k] = v;
+      }
+  l->UpdateCoefficients();
+  for (size_t k = 0; k < r->coefficients.size(); ++k)
+    r->coefficients[k] = (prev_r.coefficients[k] + step * (r->coefficients[k] - prev_r.coefficients[k])).cwiseMax(0.0);
+  for (size_t k = 0; k < r->weights.size(); ++k)
+    r->weights[k] = std::max(0.0f, static_cast<float>(prev_r.weights[k] + step * (r->weights[k] - prev_r.weights[k])));
+}
+
+}  // namespace
+
+InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& o, const KnownQuantities* known) {
+  Timer total;
+  InverseResult result;
+  InverseSummary& summary = result.summary;
+  const ObservationSet& obs = problem.observations;
+  const size_t nv = problem.mesh.num_vertices();
+  const int num_photos = static_cast<int>(obs.num_photos);
+  if (obs.records.empty()) {
+    RELIGHT_USER_ERROR() << "no observations: no vertex of the mesh is seen in any photo; check the observe stage";
+  }
+  const std::vector<BrdfLobe> basis = ParseLobeSpecs(o.basis);
+
+  // Held-out and training observations; per-photo lighting subsets.
+  std::mt19937_64 rng(static_cast<uint64_t>(o.seed));
+  std::uniform_real_distribution<double> uniform(0, 1);
+  std::vector<uint32_t> train, holdout;
+  for (size_t k = 0; k < obs.records.size(); ++k) {
+    (uniform(rng) < o.holdout_fraction ? holdout : train).push_back(static_cast<uint32_t>(k));
+  }
+  summary.train_observations = train.size();
+  summary.holdout_observations = holdout.size();
+  std::vector<std::vector<uint32_t>> subset(num_photos);
+  for (uint32_t k : train) subset[obs.records[k].photo].push_back(k);
+  for (auto& s : subset) {
+    if (static_cast<int>(s.size()) > o.lighting_max_observations) {
+      std::shuffle(s.begin(), s.end(), rng);
+      s.resize(o.lighting_max_observations);
+      std::sort(s.begin(), s.end());
+    }
+  }
+  std::vector<char> observed(nv, 0);
+  for (uint32_t k : train) observed[obs.records[k].vertex] = 1;
+
+  // Transport rows.
+  Timer step;
+  TransportOptions to;
+  to.basis = basis;
+  to.lighting_basis = o.lighting_basis;
+  to.env_resolution = o.env_resolution;
+  to.sh_order = o.sh_order;
+  to.keep_energy = o.transport_keep_energy;
+  to.max_coefficients = o.transport_max_coefficients;
+  const TransportStore transport = BuildTransport(problem.mesh, problem.visibility, obs, to);
+  summary.transport_seconds = step.Seconds();
+  summary.transport_coefficients = transport.num_coefficients();
+  const size_t rows = nv * 1 + obs.records.size() * std::max(0, transport.num_lobes() - 1);
+  summary.transport_mean_coefficients_per_row = double(transport.num_coefficients()) / std::max<size_t>(1, rows);
+  RLOG_INFO("transport: {} observations x {} lobes, {:.1f} coefficients per row, {:.0f} MB, {:.1f} s",
+            obs.records.size(), basis.size(), summary.transport_mean_coefficients_per_row,
+            transport.bytes() / 1048576.0, summary.transport_seconds);
+
+  // Initial state.
+  LightingState& lighting = result.lighting;
+  lighting.basis = o.lighting_basis;
+  lighting.env_resolution = o.env_resolution;
+  lighting.sh_order = o.sh_order;
+  lighting.Resize(num_photos);
+  ReflectanceState& reflectance = result.reflectance;
+  if (known != nullptr && known->has_reflectance && o.fixed_reflectance) {
+    reflectance = known->reflectance;
+  } else {
+    reflectance = InitializeReflectance(obs, train, nv, basis, o.materials, o.seed);
+  }
+  const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
+  if (!solve_lighting) {
+    RELIGHT_CHECK(o.lighting_basis == "haar") << "fixed lighting needs the haar basis";
+    for (int i = 0; i < num_photos; ++i)
+      for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < lighting.dim; ++k) lighting.values[i][c][k] = known->lighting_oct_rgb[i][k * 3 + c];
+    lighting.UpdateCoefficients();
+  }
+  const bool solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
+
+  InverseResult best;
+  double best_score = 1e300;
+  double previous_objective = -1;
+  summary.stop_reason = "max_iterations reached";
+  // Alternating least squares converges slowly along the bilinear valley; an
+  // extrapolated step along the last update (Bro 1998, "line search" ALS) is
+  // tried after every iteration and kept when it lowers the objective.
+  for (int iter = 0; iter < o.max_iterations; ++iter) {
+    IterationRecord rec;
+    rec.iteration = iter + 1;
+    const LightingState prev_lighting = lighting;
+    const ReflectanceState prev_reflectance = reflectance;
+    if (solve_lighting) {
+      const LightingStepResult lr = SolveLighting(transport, obs, subset, reflectance, o, &lighting);
+      rec.lighting_seconds = lr.seconds;
+      rec.photo_rmse = lr.photo_rmse;
+    }
+    step.Restart();
+    std::vector<float> responses = ComputeLobeResponses(transport, obs, train, lighting);
+    if (solve_reflectance) {
+      for (int inner = 0; inner < o.material_iterations; ++inner) {
+        SolveMaterials(obs, train, responses, &reflectance);
+        SolveWeights(obs, train, responses, o.sparsity, &reflectance);
+      }
+    }
+    rec.reflectance_seconds = step.Seconds();
+    double sse, weight;
+    ResidualStats(obs, train, responses, reflectance, &sse, &weight);
+    if (o.accelerate && iter > 0 && solve_lighting && solve_reflectance) {
+      // Try a few step lengths; the evaluation is cheap next to a lighting step.
+      double best_step = 0;
+      for (double step : {1.5, 3.0, 6.0, 12.0}) {
+        LightingState cand_l = lighting;
+        ReflectanceState cand_r = reflectance;
+        Extrapolate(prev_lighting, prev_reflectance, step, &cand_l, &cand_r);
+        const std::vector<float> cand_resp = ComputeLobeResponses(transport, obs, train, cand_l);
+        double cand_sse, cand_w;
+        ResidualStats(obs, train, cand_resp, cand_r, &cand_sse, &cand_w);
+        if (cand_sse < sse) {
+          sse = cand_sse;
+          best_step = step;
+        } else {
+          break;  // longer steps only get worse along a convex valley
+        }
+      }
+      if (best_step > 0) {
+        Extrapolate(prev_lighting, prev_reflectance, best_step, &lighting, &reflectance);
+        responses = ComputeLobeResponses(transport, obs, train, lighting);
+        rec.extrapolation = best_step;
+      }
+    }
+    // Gauge: fix the scale ambiguity (the product ρ·L is unchanged).
+    if (solve_lighting && solve_reflectance) {
+      const Eigen::Vector3d s = GaugeScale(o.gauge, lighting, reflectance, observed);
+      ApplyGauge(s, &lighting, &reflectance);
+      responses = ComputeLobeResponses(transport, obs, train, lighting);
+      ResidualStats(obs, train, responses, reflectance, &sse, &weight);
+    }
+    rec.objective = sse;
+    rec.train_rmse = std::sqrt(sse / std::max(1e-30, weight));
+    if (!holdout.empty()) {
+      const std::vector<float> hr = ComputeLobeResponses(transport, obs, holdout, lighting);
+      double hs, hw;
+      ResidualStats(obs, holdout, hr, reflectance, &hs, &hw);
+      rec.holdout_rmse = std::sqrt(hs / std::max(1e-30, hw));
+    }
+    RLOG_INFO("iteration {}: train RMSE {:.5g}, held-out RMSE {:.5g} (lighting {:.1f} s, reflectance {:.1f} s)",
+              rec.iteration, rec.train_rmse, rec.holdout_rmse, rec.lighting_seconds, rec.reflectance_seconds);
+    summary.iterations.push_back(rec);
+    const double score = holdout.empty() ? rec.train_rmse : rec.holdout_rmse;
+    if (score < best_score) {
+      best_score = score;
+      best.lighting = lighting;
+      best.reflectance = reflectance;
+      summary.best_iteration = rec.iteration;
+    }
+    if (previous_objective > 0 && std::abs(previous_objective - sse) <= o.tolerance * previous_objective) {
+      summary.stop_reason = "objective changed by less than inverse.tolerance";
+      break;
+    }
+    if (!solve_lighting || !solve_reflectance) {
+      if (iter >= 1 || !solve_reflectance) {
+        summary.stop_reason = "one factor is fixed: a single solve suffices";
+        if (!solve_reflectance && iter == 0) break;
+      }
+    }
+    if (o.time_budget_s > 0 && total.Seconds() > o.time_budget_s) {
+      summary.stop_reason = "inverse.time_budget_s reached";
+      break;
+    }
+    previous_objective = sse;
+  }
+  lighting = best.lighting;
+  reflectance = best.reflectance;
+  FillUnobservedWeights(problem.mesh, observed, &reflectance);
+  summary.seconds = total.Seconds();
+  return result;
+}
+
+namespace {
+
+KnownQuantities LoadKnown(const InverseOptions& o, const std::string& ingest_dir, const InverseProblem& problem) {
+  KnownQuantities known;
+  const std::string gt = JoinPath(ingest_dir, "ground_truth");
+  if (!fs::is_directory(gt)) {
+    RELIGHT_USER_ERROR() << "inverse.fixed_lighting / fixed_reflectance need ground truth, but '" << gt
+                         << "' does not exist (only synthetic scenes and imported data sets have it)";
+  }
+  if (o.fixed_lighting) {
+    const Json lighting = ReadJsonFile(JoinPath(gt, "lighting.json"));
+    std::map<std::string, Json> by_name;
+    for (const auto& p : lighting.at("photos")) by_name[p.at("name").get<std::string>()] = p;
+    for (const auto& photo : problem.photos) {
+      auto it = by_name.find(photo.name);
+      if (it == by_name.end()) {
+        RELIGHT_USER_ERROR() << "'" << gt << "/lighting.json' has no entry for photo '" << photo.name << "'";
+      }
+      const Json& p = it->second;
+      const EnvMap env = EnvMap::Load(JoinPath(gt, p.at("envmap_latlong").get<std::string>()));
+      const Image oct = env.ToOctahedral(o.env_resolution, 0);
+      // Photo units: exposure × white balance × scene radiance.
+      const double exposure = p.value("exposure", 1.0);
+      std::vector<double> wb = p.value("white_balance", std::vector<double>{1, 1, 1});
+      std::vector<float> rgb(oct.pixels.size());
+      for (size_t k = 0; k < rgb.size(); ++k) rgb[k] = static_cast<float>(oct.pixels[k] * exposure * wb[k % 3]);
+      known.lighting_oct_rgb.push_back(std::move(rgb));
+    }
+    known.has_lighting = true;
+  }
+  if (o.fixed_reflectance) {
+    const ReflectanceModel model = ReadReflectanceModel(JoinPath(gt, "materials.json"));
+    ReflectanceState& r = known.reflectance;
+    r.basis = model.basis;
+    r.num_materials = static_cast<int>(model.materials.size());
+    for (const auto& m : model.materials)
+      for (const auto& c : m.coefficients) r.coefficients.push_back(c);
+    r.weights.assign(problem.mesh.num_vertices() * r.num_materials, 0.0f);
+    for (int m = 0; m < r.num_materials; ++m) {
+      const std::vector<float>* w = problem.mesh.FindProperty("w" + std::to_string(m));
+      if (w == nullptr) {
+        RELIGHT_USER_ERROR() << "inverse.fixed_reflectance needs the ground-truth mesh with material weights "
+                             << "(property w" << m << "); set mesh.source: ground_truth";
+      }
+      for (size_t v = 0; v < w->size(); ++v) r.weights[v * r.num_materials + m] = (*w)[v];
+    }
+    known.has_reflectance = true;
+  }
+  return known;
+}
+
+}  // namespace
+
+InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir, const std::string& mesh_dir,
+                          const std::string& visibility_dir, const std::string& observe_dir,
+                          const std::string& output_dir) {
+  InverseProblem problem;
+  problem.mesh = ReadMesh(JoinPath(mesh_dir, "mesh.ply"));
+  if (problem.mesh.normals.size() != problem.mesh.num_vertices()) problem.mesh.ComputeVertexNormals();
+  problem.visibility = ReadVisibility(JoinPath(visibility_dir, "visibility.bin"));
+  problem.observations = ReadObservations(JoinPath(observe_dir, "observations.bin"));
+  problem.photos = ReadObservedPhotos(JoinPath(observe_dir, "photos.json"));
+  if (problem.visibility.per_vertex.size() != problem.mesh.num_vertices() ||
+      problem.observations.num_vertices != problem.mesh.num_vertices()) {
+    RELIGHT_USER_ERROR() << "mesh (" << problem.mesh.num_vertices() << " vertices), visibility ("
+                         << problem.visibility.per_vertex.size() << ") and observations ("
+                         << problem.observations.num_vertices << ") disagree; rerun from the mesh stage";
+  }
+  KnownQuantities known;
+  if (o.fixed_lighting || o.fixed_reflectance) known = LoadKnown(o, ingest_dir, problem);
+  const InverseResult result = SolveInverse(problem, o, &known);
+
+  // Outputs.
+  EnsureDir(JoinPath(output_dir, "envmaps"));
+  const int n_out = o.lighting_basis == "haar" ? o.env_resolution : 32;
+  Json photos_json = Json::array();
+  for (const auto& photo : problem.photos) {
+    const std::string stem = fs::path(photo.name).stem().string();
+    const std::vector<float> rgb = result.lighting.OctahedralRgb(static_cast<int>(photo.index), n_out);
+    Image oct(n_out, n_out, 3);
+    for (size_t k = 0; k < rgb.size(); ++k) oct.pixels[k] = std::max(0.0f, rgb[k]);
+    WriteImage(JoinPath(output_dir, "envmaps/" + stem + "_oct.exr"), oct, {PixelType::kFloat});
+    const EnvMap env = EnvMap::FromOctahedral(oct);
+    WriteImage(JoinPath(output_dir, "envmaps/" + stem + "_latlong.exr"), env.ToLatLong(std::max(32, 2 * n_out), 0),
+               {PixelType::kFloat});
+    // Brightest direction of the map (texel of largest luminance).
+    int best = 0;
+    double best_lum = -1;
+    for (int k = 0; k < n_out * n_out; ++k) {
+      const double lum = 0.2126 * oct.pixels[k * 3] + 0.7152 * oct.pixels[k * 3 + 1] + 0.0722 * oct.pixels[k * 3 + 2];
+      if (lum > best_lum) {
+        best_lum = lum;
+        best = k;
+      }
+    }
+    const Eigen::Vector3d dir = OctTexelDirection(best % n_out, best / n_out, n_out);
+    photos_json.push_back({{"index", photo.index},
+                           {"name", photo.name},
+                           {"envmap_oct", "envmaps/" + stem + "_oct.exr"},
+                           {"envmap_latlong", "envmaps/" + stem + "_latlong.exr"},
+                           {"brightest_direction_world", {dir.x(), dir.y(), dir.z()}}});
+  }
+  WriteJsonAtomic(JoinPath(output_dir, "lighting.json"),
+                  Json{{"basis", o.lighting_basis}, {"env_resolution", n_out}, {"photos", photos_json}});
+
+  const ReflectanceState& r = result.reflectance;
+  TriangleMesh out = problem.mesh;
+  const ReflectanceModel model = r.Model();
+  for (int m = 0; m < r.num_materials; ++m) {
+    std::vector<float>& w = out.Property("w" + std::to_string(m));
+    for (size_t v = 0; v < out.num_vertices(); ++v) w[v] = r.weights[v * r.num_materials + m];
+  }
+  std::vector<float>&ar = out.Property("albedo_r"), &ag = out.Property("albedo_g"), &ab = out.Property("albedo_b");
+  for (size_t v = 0; v < out.num_vertices(); ++v) {
+    std::vector<double> w(r.weights.begin() + v * r.num_materials, r.weights.begin() + (v + 1) * r.num_materials);
+    const Eigen::Vector3d albedo = model.DiffuseAlbedo(w);
+    ar[v] = static_cast<float>(albedo.x());
+    ag[v] = static_cast<float>(albedo.y());
+    ab[v] = static_cast<float>(albedo.z());
+  }
+  WriteMeshPly(JoinPath(output_dir, "reflectance.ply"), out);
+  WriteReflectanceModel(JoinPath(output_dir, "materials.json"), model);
+
+  const InverseSummary& s = result.summary;
+  OrderedJson j;
+  j["lighting_basis"] = o.lighting_basis;
+  j["env_resolution"] = o.env_resolution;
+  j["sh_order"] = o.sh_order;
+  j["basis"] = o.basis;
+  j["materials"] = r.num_materials;
+  j["photos"] = problem.photos.size();
+  j["vertices"] = problem.mesh.num_vertices();
+  j["observations"] = problem.observations.records.size();
+  j["train_observations"] = s.train_observations;
+  j["holdout_observations"] = s.holdout_observations;
+  j["transport_seconds"] = s.transport_seconds;
+  j["transport_mean_coefficients_per_row"] = s.transport_mean_coefficients_per_row;
+  Json iters = Json::array();
+  for (const auto& it : s.iterations) {
+    iters.push_back({{"iteration", it.iteration},
+                     {"objective", it.objective},
+                     {"train_rmse", it.train_rmse},
+                     {"holdout_rmse", it.holdout_rmse},
+                     {"lighting_seconds", it.lighting_seconds},
+                     {"reflectance_seconds", it.reflectance_seconds},
+                     {"photo_rmse", it.photo_rmse}});
+  }
+  j["iterations"] = iters;
+  j["best_iteration"] = s.best_iteration;
+  j["stop_reason"] = s.stop_reason;
+  j["gauge"] = o.gauge;
+  j["seconds"] = s.seconds;
+  WriteJsonAtomic(JoinPath(output_dir, "solve_summary.json"), j);
+  RLOG_INFO("inverse: {} iterations ({}), best {}, {:.1f} s", s.iterations.size(), s.stop_reason, s.best_iteration,
+            s.seconds);
+  return s;
+}
+
+}  // namespace relight

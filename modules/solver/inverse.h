@@ -1,0 +1,80 @@
+// The `inverse` stage: alternating optimisation of the bilinear model
+// (Haber et al. 2009, §5, eq. 9): lighting steps (per photo, lighting.h) and
+// reflectance steps (materials and weights, reflectance.h) until the training
+// objective settles, with a held-out share of the observations judging
+// convergence (the iterate with the lowest held-out error is kept) and an
+// explicit gauge for the global and per-channel scale ambiguity.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "geometry/mesh.h"
+#include "observe/observations.h"
+#include "solver/inverse_options.h"
+#include "solver/model.h"
+#include "visibility/visibility.h"
+
+namespace relight {
+
+// Everything the solver reads.
+struct InverseProblem {
+  TriangleMesh mesh;                 // with vertex normals
+  VisibilityData visibility;
+  ObservationSet observations;
+  std::vector<ObservedPhoto> photos;
+};
+
+// Optional known quantities (synthetic scenes): per-photo octahedral RGB maps
+// at the solver's resolution (photo units, i.e. including exposure and white
+// balance) and the true reflectance.
+struct KnownQuantities {
+  std::vector<std::vector<float>> lighting_oct_rgb;  // [photo][texel * 3 + c]
+  ReflectanceState reflectance;
+  bool has_lighting = false;
+  bool has_reflectance = false;
+};
+
+// One outer iteration.
+struct IterationRecord {
+  int iteration = 0;
+  double train_rmse = 0;          // confidence-weighted, over training observations (linear units)
+  double holdout_rmse = 0;        // over held-out observations (0 when none)
+  double objective = 0;           // Σ α (y − ŷ)² over training observations
+  double lighting_seconds = 0;
+  double reflectance_seconds = 0;
+  std::vector<double> photo_rmse;  // lighting-subset RMSE per photo
+  double extrapolation = 0;        // accepted extrapolation step (0: none)
+};
+
+struct InverseSummary {
+  std::vector<IterationRecord> iterations;
+  int best_iteration = 0;
+  double transport_seconds = 0;
+  size_t transport_coefficients = 0;
+  double transport_mean_coefficients_per_row = 0;
+  size_t train_observations = 0;
+  size_t holdout_observations = 0;
+  std::string stop_reason;
+  Eigen::Vector3d gauge_scale = Eigen::Vector3d::Ones();  // applied to the lighting of the last gauge fix
+  double seconds = 0;
+};
+
+struct InverseResult {
+  LightingState lighting;
+  ReflectanceState reflectance;
+  InverseSummary summary;
+};
+
+// Solves the problem (library entry point for the stage, tests and sweeps).
+InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& options,
+                           const KnownQuantities* known = nullptr);
+
+// Runs the stage: reads <mesh>/mesh.ply, <visibility>/visibility.bin, <observe>/observations.bin and
+// photos.json (and ground truth from <ingest> for the fixed_* modes); writes envmaps/, reflectance.ply,
+// materials.json, lighting.json and solve_summary.json into `output_dir`.
+InverseSummary RunInverse(const InverseOptions& options, const std::string& ingest_dir, const std::string& mesh_dir,
+                          const std::string& visibility_dir, const std::string& observe_dir,
+                          const std::string& output_dir);
+
+}  // namespace relight

@@ -1,0 +1,121 @@
+// Options of the `inverse` stage: per-photo environment maps and per-vertex
+// reflectance from the bilinear system (Haber et al. 2009, §5).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "core/options.h"
+#include "core/stage.h"
+
+namespace relight {
+
+inline const StageInfo kInverseStage{
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 1};
+
+struct InverseOptions {
+  // Lighting representation.
+  std::string lighting_basis = "haar";  // haar (the method) or sh (low-frequency baseline)
+  int env_resolution = 32;              // side of each octahedral environment map (Haar)
+  int sh_order = 2;                     // bands of the SH baseline
+  double transport_keep_energy = 0.999; // Haar truncation of each transport row
+  int transport_max_coefficients = 256; // cap per row
+
+  // Reflectance model.
+  std::vector<std::string> basis = {"lambertian", "ggx:0.1", "ggx:0.3", "phong:50", "phong:500"};
+  int materials = 3;                    // materials (k-means regions at initialisation)
+  double sparsity = 1e-3;               // penalty on the sum of per-vertex weights (favours few materials)
+
+  // Lighting step.
+  double smoothness = 1e-4;             // Laplacian weight relative to the system's largest diagonal value
+  int irls_iterations = 2;              // reweighting passes per lighting step (restarted every step)
+  std::string robust_loss = "huber";    // none, huber or cauchy
+  double robust_scale = 2.0;            // robust threshold in units of the residuals' robust sigma
+  std::string qp_solver = "projected_newton";  // projected_newton or ceres
+  int lighting_max_observations = 12000;       // per photo; a fixed random subset when there are more
+
+  // Alternation.
+  int max_iterations = 6;               // outer lighting/reflectance iterations
+  double tolerance = 2e-3;              // stop when the training objective changes less than this (relative)
+  double time_budget_s = 0;             // stop after this much time (0: no limit)
+  int material_iterations = 2;          // materials/weights alternations per reflectance step
+  bool accelerate = true;               // try an extrapolated step after every iteration
+  double holdout_fraction = 0.1;        // observations held out to judge convergence (0: none)
+  std::string gauge = "neutral_light";  // neutral_light or neutral_albedo
+  int seed = 1;                         // random subsets and k-means
+
+  // Known quantities, for experiments and tests on synthetic scenes.
+  bool fixed_lighting = false;          // use the ground-truth environment maps; solve reflectance only
+  bool fixed_reflectance = false;       // use the ground-truth reflectance; solve lighting only
+
+  void Declare(OptionTable* t) {
+    t->Add("lighting_basis", &lighting_basis,
+           "Lighting representation: haar (all-frequency wavelets, the method) or sh (spherical harmonics baseline).")
+        .Choices({"haar", "sh"});
+    t->Add("env_resolution", &env_resolution, "Side of each recovered octahedral environment map (power of two).")
+        .Range(4, 128);
+    t->Add("sh_order", &sh_order, "Highest SH band when lighting_basis = sh ((order+1)² coefficients).").Range(1, 8);
+    t->Add("transport_keep_energy", &transport_keep_energy,
+           "Each transport row keeps the fewest Haar coefficients holding this share of its energy.")
+        .Range(0.5, 1.0);
+    t->Add("transport_max_coefficients", &transport_max_coefficients, "At most this many coefficients per row.")
+        .Range(1, 16384);
+    t->Add("basis", &basis,
+           "Basis BRDFs: lambertian, ggx:ALPHA[:F0], cook_torrance:ALPHA[:F0], phong:EXPONENT. "
+           "The first Lambertian lobe carries the albedo.");
+    t->Add("materials", &materials, "Number of materials (k-means regions at initialisation).").Range(1, 32);
+    t->Add("sparsity", &sparsity,
+           "Penalty on the sum of a vertex's material weights, relative to its data term (favours few materials).")
+        .Range(0, 1);
+    t->Add("smoothness", &smoothness,
+           "Laplacian smoothness of environment maps, relative to the largest diagonal value of the system "
+           "(seed: 0.01%).")
+        .Range(0, 1);
+    t->Add("irls_iterations", &irls_iterations,
+           "Iteratively reweighted least-squares passes per lighting step (weights restart every step).")
+        .Range(1, 20);
+    t->Add("robust_loss", &robust_loss, "Robust reweighting of the lighting fit.").Choices({"none", "huber", "cauchy"});
+    t->Add("robust_scale", &robust_scale, "Robust threshold in units of the residuals' robust standard deviation.")
+        .Range(0.1, 100);
+    t->Add("qp_solver", &qp_solver,
+           "Non-negative lighting QP: projected_newton (active-set Newton on the dense system) or ceres "
+           "(bounded Levenberg-Marquardt; slower, kept for comparison).")
+        .Choices({"projected_newton", "ceres"});
+    t->Add("lighting_max_observations", &lighting_max_observations,
+           "Observations per photo used by lighting steps (a fixed random subset when there are more).")
+        .Min(16);
+    t->Add("max_iterations", &max_iterations, "Outer lighting/reflectance iterations.").Range(1, 100);
+    t->Add("tolerance", &tolerance, "Stop when the training objective changes by less than this (relative).")
+        .Range(0, 1);
+    t->Add("time_budget_s", &time_budget_s, "Stop the alternation after this many seconds (0: no limit).").Min(0);
+    t->Add("material_iterations", &material_iterations, "Materials/weights alternations per reflectance step.")
+        .Range(1, 20);
+    t->Add("accelerate", &accelerate,
+           "After every iteration, try an extrapolated step along the last update (line-search ALS) and keep it when "
+           "it lowers the objective.");
+    t->Add("holdout_fraction", &holdout_fraction,
+           "Share of observations held out of the fit; their error judges convergence and picks the best iterate.")
+        .Range(0, 0.5);
+    t->Add("gauge", &gauge,
+           "How the global and per-channel scale ambiguity is fixed: neutral_light (mean environment radiance is "
+           "grey, 1 per channel) or neutral_albedo (mean diffuse albedo is grey, 0.5 per channel).")
+        .Choices({"neutral_light", "neutral_albedo"});
+    t->Add("seed", &seed, "Seed of random subsets and k-means.");
+    t->Add("fixed_lighting", &fixed_lighting,
+           "Use the ground-truth environment maps and solve only the reflectance (synthetic scenes).");
+    t->Add("fixed_reflectance", &fixed_reflectance,
+           "Use the ground-truth reflectance and solve only the lighting (synthetic scenes with ground-truth mesh).");
+  }
+  void Check() const {
+    if (env_resolution & (env_resolution - 1)) {
+      RELIGHT_USER_ERROR() << "inverse.env_resolution = " << env_resolution << " must be a power of two";
+    }
+    if (basis.empty()) RELIGHT_USER_ERROR() << "inverse.basis must list at least one BRDF";
+    if (fixed_lighting && fixed_reflectance) {
+      RELIGHT_USER_ERROR() << "inverse.fixed_lighting and inverse.fixed_reflectance leave nothing to solve";
+    }
+  }
+};
+
+}  // namespace relight

@@ -1,0 +1,194 @@
+#include "solver/lighting.h"
+
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/timer.h"
+#include "solver/qp.h"
+#include "sphere/octahedral.h"
+#include "sphere/sh.h"
+#include "wavelet/haar.h"
+
+namespace relight {
+
+Eigen::MatrixXd OctahedralLaplacianGram(int n) {
+  const int dim = n * n;
+  Eigen::MatrixXd lap = Eigen::MatrixXd::Zero(dim, dim);
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const int k = j * n + i;
+      const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+      for (int q = 0; q < 4; ++q) {
+        const Eigen::Vector2i t = OctWrapTexel(i + di[q], j + dj[q], n);
+        const int nb = t.y() * n + t.x();
+        if (nb == k) continue;
+        lap(k, k) += 1.0;
+        lap(k, nb) -= 1.0;
+      }
+    }
+  }
+  return lap.transpose() * lap;
+}
+
+std::vector<double> RobustWeights(const std::vector<double>& residuals, const std::string& loss, double scale) {
+  std::vector<double> w(residuals.size(), 1.0);
+  if (loss == "none" || residuals.empty()) return w;
+  std::vector<double> abs_r(residuals.size());
+  for (size_t k = 0; k < residuals.size(); ++k) abs_r[k] = std::abs(residuals[k]);
+  std::vector<double> sorted = abs_r;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double sigma = 1.4826 * sorted[sorted.size() / 2];
+  const double s = std::max(1e-12, scale * sigma);
+  for (size_t k = 0; k < residuals.size(); ++k) {
+    const double r = abs_r[k] / s;
+    w[k] = loss == "huber" ? (r <= 1 ? 1.0 : 1.0 / r) : 1.0 / (1.0 + r * r);
+  }
+  return w;
+}
+
+namespace {
+
+// Non-negativity at sample directions for SH lighting: exact-penalty active set.
+Eigen::VectorXd SolveShNonNegative(const Eigen::MatrixXd& Q, const Eigen::VectorXd& q, const Eigen::MatrixXd& basis,
+                                   int* iterations) {
+  const double mu = 1e3 * std::max(1e-30, Q.diagonal().maxCoeff());
+  Eigen::VectorXd x = Eigen::LDLT<Eigen::MatrixXd>(Q).solve(q);
+  std::vector<char> active(basis.rows(), 0);
+  *iterations = 1;
+  for (int iter = 0; iter < 40; ++iter) {
+    const Eigen::VectorXd p = basis * x;
+    std::vector<char> next(basis.rows(), 0);
+    bool changed = false;
+    for (Eigen::Index k = 0; k < p.size(); ++k) {
+      next[k] = p[k] < 0 || (active[k] && p[k] <= 1e-12);
+      changed |= next[k] != active[k];
+    }
+    if (!changed) break;
+    active = next;
+    Eigen::MatrixXd h = Q;
+    for (Eigen::Index k = 0; k < p.size(); ++k)
+      if (active[k]) h.selfadjointView<Eigen::Lower>().rankUpdate(basis.row(k).transpose(), mu);
+    h = h.selfadjointView<Eigen::Lower>();
+    x = Eigen::LDLT<Eigen::MatrixXd>(h).solve(q);
+    ++*iterations;
+  }
+  return x;
+}
+
+}  // namespace
+
+LightingStepResult SolveLighting(const TransportStore& transport, const ObservationSet& observations,
+                                 const std::vector<std::vector<uint32_t>>& subset, const ReflectanceState& reflectance,
+                                 const InverseOptions& options, LightingState* lighting) {
+  Timer timer;
+  const bool haar = lighting->basis == "haar";
+  const int dim = lighting->dim;
+  const int n = lighting->env_resolution;
+  const int num_photos = static_cast<int>(subset.size());
+  const int num_lobes = reflectance.num_lobes();
+  LightingStepResult result;
+  result.photo_rmse.assign(num_photos, 0.0);
+  result.qp_iterations.assign(num_photos, 0);
+
+  Eigen::MatrixXd regularizer;  // per unit weight
+  Eigen::MatrixXd sh_constraint;
+  if (haar) {
+    regularizer = OctahedralLaplacianGram(n);
+  } else {
+    regularizer = Eigen::MatrixXd::Zero(dim, dim);
+    for (int l = 0; l <= lighting->sh_order; ++l)
+      for (int m = -l; m <= l; ++m) regularizer(ShIndex(l, m), ShIndex(l, m)) = double(l * (l + 1)) * (l * (l + 1));
+    const int nc = 32;
+    sh_constraint.resize(nc * nc, dim);
+    for (int k = 0; k < nc * nc; ++k) {
+      const Eigen::VectorXd y = ShEvaluate(lighting->sh_order, OctTexelDirection(k % nc, k / nc, nc));
+      sh_constraint.row(k) = y.transpose();
+    }
+  }
+
+  tbb::parallel_for(0, num_photos, [&](int i) {
+    const std::vector<uint32_t>& obs = subset[i];
+    const Eigen::Index rows = static_cast<Eigen::Index>(obs.size());
+    if (rows == 0) return;
+    using RowMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    std::array<RowMatrix, 3> a;
+    std::array<Eigen::VectorXf, 3> y;
+    Eigen::VectorXd alpha(rows);
+    for (int c = 0; c < 3; ++c) {
+      a[c] = RowMatrix::Zero(rows, dim);
+      y[c].resize(rows);
+    }
+    std::vector<float> rho(num_lobes * 3);
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      const size_t o = obs[r];
+      const Observation& ob = observations.records[o];
+      reflectance.VertexLobeWeights(ob.vertex, rho.data());
+      alpha[r] = ob.confidence;
+      for (int c = 0; c < 3; ++c) y[c][r] = ob.rgb[c];
+      for (int b = 0; b < num_lobes; ++b) {
+        const TransportStore::Row row = transport.Get(o, ob.vertex, b);
+        for (int c = 0; c < 3; ++c) {
+          const float s = rho[b * 3 + c];
+          if (s == 0.0f) continue;
+          float* dst = a[c].row(r).data();
+          for (uint32_t k = 0; k < row.size; ++k) dst[row.index[k]] += s * row.value[k];
+        }
+      }
+      if (haar) {
+        for (int c = 0; c < 3; ++c) HaarInverse(a[c].row(r).data(), n, a[c].row(r).data());
+      }
+    }
+
+    std::vector<double> robust(rows, 1.0);
+    for (int pass = 0; pass < options.irls_iterations; ++pass) {
+      std::vector<double> residual(rows, 0.0);
+      double sse = 0, wsum = 0;
+      for (int c = 0; c < 3; ++c) {
+        Eigen::VectorXf sw(rows);
+        for (Eigen::Index r = 0; r < rows; ++r) sw[r] = static_cast<float>(std::sqrt(alpha[r] * robust[r]));
+        const RowMatrix aw = sw.asDiagonal() * a[c];
+        Eigen::MatrixXf qf = Eigen::MatrixXf::Zero(dim, dim);
+        qf.selfadjointView<Eigen::Lower>().rankUpdate(aw.transpose());
+        const Eigen::MatrixXd q_lower = qf.cast<double>();
+        Eigen::MatrixXd q_mat = q_lower.selfadjointView<Eigen::Lower>();
+        const Eigen::VectorXf rhs_f = aw.transpose() * sw.cwiseProduct(y[c]);
+        const Eigen::VectorXd rhs = rhs_f.cast<double>();
+        const double lambda = options.smoothness * std::max(1e-30, q_mat.diagonal().maxCoeff());
+        q_mat += lambda * regularizer;
+        // A vanishing ridge keeps texels no observation sees well-posed (they stay at the smooth fill-in).
+        q_mat.diagonal().array() += 1e-9 * std::max(1e-30, q_mat.diagonal().maxCoeff());
+        Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXf>(lighting->values[i][c].data(), dim).cast<double>();
+        if (haar) {
+          const QpSummary s = SolveNonNegativeQp(options.qp_solver, q_mat, rhs, &x);
+          result.qp_iterations[i] += s.iterations;
+        } else {
+          int it = 0;
+          x = SolveShNonNegative(q_mat, rhs, sh_constraint, &it);
+          result.qp_iterations[i] += it;
+        }
+        for (int k = 0; k < dim; ++k) lighting->values[i][c][k] = static_cast<float>(x[k]);
+        const Eigen::VectorXf pred = a[c] * x.cast<float>();
+        for (Eigen::Index r = 0; r < rows; ++r) {
+          const double e = double(y[c][r]) - pred[r];
+          residual[r] += e * e;
+          sse += alpha[r] * e * e;
+          wsum += alpha[r];
+        }
+      }
+      result.photo_rmse[i] = std::sqrt(sse / std::max(1e-30, wsum));
+      if (pass + 1 < options.irls_iterations) {
+        for (double& r : residual) r = std::sqrt(r);
+        robust = RobustWeights(residual, options.robust_loss, options.robust_scale);
+      }
+    }
+  });
+  lighting->UpdateCoefficients();
+  result.seconds = timer.Seconds();
+  return result;
+}
+
+}  // namespace relight

@@ -1,0 +1,35 @@
+// The lighting step (Haber et al. 2009, §5.1, eq. 10): with the reflectance
+// fixed, each photo's environment map solves a convex QP per colour channel,
+//   min Σ_o α_o w_o (y_o − r_o·L)² + λ |Δ L|²   subject to  L ≥ 0 (pixel domain),
+// with rows r_o = Σ_b ρ_{v,b} a_{o,b}, confidences α_o, robust weights w_o
+// (iteratively reweighted least squares, restarted in every lighting step),
+// the octahedral grid Laplacian Δ and λ a fraction of the system's largest
+// diagonal value. For the SH baseline L is a coefficient vector, the Laplacian
+// is diagonal (l(l+1)) and non-negativity holds at the octahedral texel centres.
+#pragma once
+
+#include <vector>
+
+#include "solver/inverse_options.h"
+#include "solver/model.h"
+
+namespace relight {
+
+struct LightingStepResult {
+  std::vector<double> photo_rmse;   // weighted RMSE over the lighting subset, per photo
+  std::vector<int> qp_iterations;   // summed over channels and IRLS passes, per photo
+  double seconds = 0;
+};
+
+// Solves every photo's map. `subset[i]` lists the observation indices of photo i to fit.
+LightingStepResult SolveLighting(const TransportStore& transport, const ObservationSet& observations,
+                                 const std::vector<std::vector<uint32_t>>& subset, const ReflectanceState& reflectance,
+                                 const InverseOptions& options, LightingState* lighting);
+
+// Dense Δ^T Δ of the graph Laplacian of an n×n octahedral grid (4-neighbours across the folds).
+Eigen::MatrixXd OctahedralLaplacianGram(int n);
+
+// Robust IRLS weights of residual magnitudes (huber, cauchy; none gives 1).
+std::vector<double> RobustWeights(const std::vector<double>& residuals, const std::string& loss, double scale);
+
+}  // namespace relight

@@ -1,0 +1,56 @@
+// The unknowns of the bilinear model (Haber et al. 2009, eqs. 9, 11):
+// per-photo environment maps L_i and per-vertex reflectance
+// ρ_v = Σ_m w_{v,m} Σ_b c_{m,b} f_b (materials c, weights w, basis lobes f_b).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "brdf/brdf.h"
+#include "observe/observations.h"
+#include "solver/transport.h"
+
+namespace relight {
+
+struct ReflectanceState {
+  std::vector<BrdfLobe> basis;
+  int num_materials = 0;
+  std::vector<Eigen::Vector3d> coefficients;  // [m * B + b]: RGB weight of lobe b in material m (>= 0)
+  std::vector<float> weights;                 // [v * M + m]: material weights of vertex v (>= 0)
+
+  int num_lobes() const { return static_cast<int>(basis.size()); }
+  // ρ_{v,b,c} for all lobes b and channels c into out[b * 3 + c].
+  void VertexLobeWeights(uint32_t vertex, float* out) const;
+  // The ReflectanceModel (materials.json) of this state.
+  ReflectanceModel Model() const;
+};
+
+struct LightingState {
+  std::string basis = "haar";  // haar or sh
+  int env_resolution = 32;
+  int sh_order = 2;
+  int dim = 0;                 // coefficients per channel
+  // Per photo and channel: haar -> pixel values of the octahedral map (the bilinear
+  // reconstruction's control values); sh -> SH coefficients.
+  std::vector<std::array<std::vector<float>, 3>> values;
+  // Per photo and channel: coefficients in the transport rows' basis (Haar of
+  // `values`, or the SH coefficients themselves). Refresh with UpdateCoefficients().
+  std::vector<std::array<std::vector<float>, 3>> coefficients;
+
+  void Resize(int num_photos);
+  void UpdateCoefficients();
+  // Octahedral N×N RGB radiance image of a photo's map (SH evaluated at texel centres).
+  std::vector<float> OctahedralRgb(int photo, int n) const;
+};
+
+// Prediction Σ_b ρ_{v,b,c} a_{o,b}·L_{i,c} of observation `o` for all channels.
+void Predict(const TransportStore& transport, const ObservationSet& obs, size_t o, const ReflectanceState& r,
+             const LightingState& l, float out[3]);
+
+// Per-lobe predictions p_{o,b,c} = a_{o,b}·L_{i,c}, into out[b * 3 + c].
+void LobePredictions(const TransportStore& transport, const ObservationSet& obs, size_t o, const LightingState& l,
+                     float* out);
+
+}  // namespace relight

@@ -1,0 +1,295 @@
+#include "solver/reflectance.h"
+
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "core/error.h"
+#include "solver/qp.h"
+
+namespace relight {
+
+std::vector<float> ComputeLobeResponses(const TransportStore& transport, const ObservationSet& observations,
+                                        const std::vector<uint32_t>& ids, const LightingState& lighting) {
+  const int b_count = transport.num_lobes();
+  std::vector<float> out(ids.size() * b_count * 3);
+  tbb::parallel_for(size_t(0), ids.size(), [&](size_t k) {
+    LobePredictions(transport, observations, ids[k], lighting, out.data() + k * b_count * 3);
+  });
+  return out;
+}
+
+namespace {
+
+// Hue in [0,1), saturation in [0,1] of a linear RGB colour (HSV on the values).
+void HueSaturation(const Eigen::Vector3d& rgb, double* hue, double* sat) {
+  const double mx = rgb.maxCoeff(), mn = rgb.minCoeff(), d = mx - mn;
+  *sat = mx > 0 ? d / mx : 0.0;
+  if (d <= 0) {
+    *hue = 0;
+    return;
+  }
+  double h;
+  if (mx == rgb.x()) {
+    h = (rgb.y() - rgb.z()) / d;
+  } else if (mx == rgb.y()) {
+    h = 2 + (rgb.z() - rgb.x()) / d;
+  } else {
+    h = 4 + (rgb.x() - rgb.y()) / d;
+  }
+  h /= 6.0;
+  *hue = h - std::floor(h);
+}
+
+int FirstLambertian(const std::vector<BrdfLobe>& basis) {
+  for (size_t b = 0; b < basis.size(); ++b)
+    if (basis[b].model == BrdfModel::kLambertian) return static_cast<int>(b);
+  return -1;
+}
+
+// Observations of `train` grouped by vertex: positions k into train.
+void GroupByVertex(const ObservationSet& observations, const std::vector<uint32_t>& train, size_t num_vertices,
+                   std::vector<uint32_t>* first, std::vector<uint32_t>* items) {
+  first->assign(num_vertices + 1, 0);
+  for (uint32_t o : train) ++(*first)[observations.records[o].vertex + 1];
+  for (size_t v = 0; v < num_vertices; ++v) (*first)[v + 1] += (*first)[v];
+  items->resize(train.size());
+  std::vector<uint32_t> cursor(first->begin(), first->end() - 1);
+  for (size_t k = 0; k < train.size(); ++k) (*items)[cursor[observations.records[train[k]].vertex]++] = k;
+}
+
+}  // namespace
+
+ReflectanceState InitializeReflectance(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                                       size_t num_vertices, const std::vector<BrdfLobe>& basis, int num_materials,
+                                       int seed) {
+  ReflectanceState state;
+  state.basis = basis;
+  const int b_count = static_cast<int>(basis.size());
+  std::vector<Eigen::Vector3d> mean(num_vertices, Eigen::Vector3d::Zero());
+  std::vector<double> weight(num_vertices, 0.0);
+  for (uint32_t o : train) {
+    const Observation& ob = observations.records[o];
+    mean[ob.vertex] += ob.confidence * Eigen::Vector3d(ob.rgb[0], ob.rgb[1], ob.rgb[2]);
+    weight[ob.vertex] += ob.confidence;
+  }
+  std::vector<uint32_t> observed;
+  for (size_t v = 0; v < num_vertices; ++v) {
+    if (weight[v] > 0) {
+      mean[v] /= weight[v];
+      observed.push_back(static_cast<uint32_t>(v));
+    }
+  }
+  const int k = std::max(1, std::min<int>(num_materials, static_cast<int>(observed.size())));
+  state.num_materials = k;
+  // Features (cos 2πH, sin 2πH, S); hue counts only where saturation makes it meaningful.
+  cv::Mat features(static_cast<int>(std::max<size_t>(1, observed.size())), 3, CV_32F, cv::Scalar(0));
+  for (size_t q = 0; q < observed.size(); ++q) {
+    double hue, sat;
+    HueSaturation(mean[observed[q]], &hue, &sat);
+    const double hue_weight = std::min(1.0, sat / 0.1);
+    features.at<float>(static_cast<int>(q), 0) = static_cast<float>(hue_weight * std::cos(2 * M_PI * hue));
+    features.at<float>(static_cast<int>(q), 1) = static_cast<float>(hue_weight * std::sin(2 * M_PI * hue));
+    features.at<float>(static_cast<int>(q), 2) = static_cast<float>(sat);
+  }
+  cv::Mat labels, centers;
+  if (observed.size() >= static_cast<size_t>(k) && k > 1) {
+    cv::theRNG().state = static_cast<uint64_t>(seed) * 2654435761ULL + 1;
+    cv::kmeans(features, k, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-5), 4,
+               cv::KMEANS_PP_CENTERS, centers);
+  } else {
+    labels = cv::Mat::zeros(features.rows, 1, CV_32S);
+    cv::reduce(features, centers, 0, cv::REDUCE_AVG);
+  }
+  // Each region's median colour is its material's diffuse colour.
+  const int lambert = FirstLambertian(basis);
+  state.coefficients.assign(size_t(k) * b_count, Eigen::Vector3d::Zero());
+  for (int m = 0; m < k; ++m) {
+    std::array<std::vector<double>, 3> channel;
+    for (size_t q = 0; q < observed.size(); ++q) {
+      if (labels.at<int>(static_cast<int>(q)) != m) continue;
+      for (int c = 0; c < 3; ++c) channel[c].push_back(mean[observed[q]][c]);
+    }
+    Eigen::Vector3d median = Eigen::Vector3d::Constant(0.5);
+    for (int c = 0; c < 3; ++c) {
+      if (channel[c].empty()) continue;
+      std::nth_element(channel[c].begin(), channel[c].begin() + channel[c].size() / 2, channel[c].end());
+      median[c] = channel[c][channel[c].size() / 2];
+    }
+    if (lambert >= 0) {
+      state.coefficients[m * b_count + lambert] = median.cwiseMax(1e-6);
+    } else {  // no diffuse lobe: start every lobe at the region's colour
+      for (int b = 0; b < b_count; ++b) state.coefficients[m * b_count + b] = median.cwiseMax(1e-6);
+    }
+  }
+  // Soft weights from the distances to the centroids.
+  state.weights.assign(num_vertices * k, 1.0f / k);
+  double sigma2 = 0;
+  std::vector<std::vector<double>> d2(observed.size(), std::vector<double>(k));
+  for (size_t q = 0; q < observed.size(); ++q) {
+    double best = 1e300;
+    for (int m = 0; m < k; ++m) {
+      double s = 0;
+      for (int f = 0; f < 3; ++f) {
+        const double diff = features.at<float>(static_cast<int>(q), f) - centers.at<float>(m, f);
+        s += diff * diff;
+      }
+      d2[q][m] = s;
+      best = std::min(best, s);
+    }
+    sigma2 += best;
+  }
+  sigma2 = std::max(1e-6, sigma2 / std::max<size_t>(1, observed.size()));
+  for (size_t q = 0; q < observed.size(); ++q) {
+    double total = 0;
+    std::vector<double> w(k);
+    const double best = *std::min_element(d2[q].begin(), d2[q].end());
+    for (int m = 0; m < k; ++m) total += w[m] = std::exp(-(d2[q][m] - best) / (2 * sigma2));
+    for (int m = 0; m < k; ++m) state.weights[size_t(observed[q]) * k + m] = static_cast<float>(w[m] / total);
+  }
+  return state;
+}
+
+void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                  const std::vector<float>& responses, double sparsity, ReflectanceState* state) {
+  const int m_count = state->num_materials, b_count = state->num_lobes();
+  const size_t nv = state->weights.size() / m_count;
+  std::vector<uint32_t> first, items;
+  GroupByVertex(observations, train, nv, &first, &items);
+  tbb::parallel_for(size_t(0), nv, [&](size_t v) {
+    if (first[v] == first[v + 1]) return;
+    Eigen::MatrixXd g = Eigen::MatrixXd::Zero(m_count, m_count);
+    Eigen::VectorXd h = Eigen::VectorXd::Zero(m_count);
+    Eigen::VectorXd u(m_count);
+    for (uint32_t q = first[v]; q < first[v + 1]; ++q) {
+      const uint32_t k = items[q];
+      const Observation& ob = observations.records[train[k]];
+      const float* resp = responses.data() + size_t(k) * b_count * 3;
+      for (int c = 0; c < 3; ++c) {
+        for (int m = 0; m < m_count; ++m) {
+          double s = 0;
+          for (int b = 0; b < b_count; ++b) s += state->coefficients[m * b_count + b][c] * resp[b * 3 + c];
+          u[m] = s;
+        }
+        g.noalias() += ob.confidence * u * u.transpose();
+        h += ob.confidence * ob.rgb[c] * u;
+      }
+    }
+    const double scale = std::max(1e-30, g.diagonal().maxCoeff());
+    g.diagonal().array() += 1e-9 * scale;
+    const double beta = sparsity * std::max(0.0, h.maxCoeff());
+    const Eigen::VectorXd q = h.array() - beta;
+
+    Eigen::VectorXd w(m_count);
+    for (int m = 0; m < m_count; ++m) w[m] = state->weights[v * m_count + m];
+    SolveNonNegativeQp(g, q, &w);
+    for (int m = 0; m < m_count; ++m) state->weights[v * m_count + m] = static_cast<float>(w[m]);
+  });
+}
+
+void SolveMaterials(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                    const std::vector<float>& responses, ReflectanceState* state) {
+  const int m_count = state->num_materials, b_count = state->num_lobes();
+  const int dim = m_count * b_count;
+  for (int c = 0; c < 3; ++c) {
+    struct Acc {
+      Eigen::MatrixXd g;
+      Eigen::VectorXd h;
+    };
+    tbb::combinable<Acc> acc([&] { return Acc{Eigen::MatrixXd::Zero(dim, dim), Eigen::VectorXd::Zero(dim)}; });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, train.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+      Acc& a = acc.local();
+      Eigen::VectorXd phi(dim);
+      for (size_t k = r.begin(); k < r.end(); ++k) {
+        const Observation& ob = observations.records[train[k]];
+        const float* w = state->weights.data() + size_t(ob.vertex) * m_count;
+        const float* resp = responses.data() + k * b_count * 3;
+        for (int m = 0; m < m_count; ++m)
+          for (int b = 0; b < b_count; ++b) phi[m * b_count + b] = double(w[m]) * resp[b * 3 + c];
+        a.g.selfadjointView<Eigen::Lower>().rankUpdate(phi, ob.confidence);
+        a.h += ob.confidence * ob.rgb[c] * phi;
+      }
+    });
+    Eigen::MatrixXd g = Eigen::MatrixXd::Zero(dim, dim);
+    Eigen::VectorXd h = Eigen::VectorXd::Zero(dim);
+    acc.combine_each([&](const Acc& a) {
+      g += a.g;
+      h += a.h;
+    });
+    g = Eigen::MatrixXd(g.selfadjointView<Eigen::Lower>());
+    g.diagonal().array() += 1e-9 * std::max(1e-30, g.diagonal().maxCoeff());
+    Eigen::VectorXd x(dim);
+    for (int m = 0; m < m_count; ++m)
+      for (int b = 0; b < b_count; ++b) x[m * b_count + b] = state->coefficients[m * b_count + b][c];
+    SolveNonNegativeQp(g, h, &x);
+    for (int m = 0; m < m_count; ++m)
+      for (int b = 0; b < b_count; ++b) state->coefficients[m * b_count + b][c] = x[m * b_count + b];
+  }
+}
+
+void FillUnobservedWeights(const TriangleMesh& mesh, const std::vector<char>& observed, ReflectanceState* state) {
+  const int m_count = state->num_materials;
+  const size_t nv = mesh.num_vertices();
+  std::vector<std::vector<uint32_t>> neighbours(nv);
+  for (const auto& f : mesh.faces) {
+    for (int k = 0; k < 3; ++k) {
+      neighbours[f[k]].push_back(static_cast<uint32_t>(f[(k + 1) % 3]));
+      neighbours[f[k]].push_back(static_cast<uint32_t>(f[(k + 2) % 3]));
+    }
+  }
+  std::vector<char> known(observed.begin(), observed.end());
+  for (int iter = 0; iter < 1000; ++iter) {
+    std::vector<uint32_t> newly;
+    for (size_t v = 0; v < nv; ++v) {
+      if (known[v]) continue;
+      std::vector<double> sum(m_count, 0.0);
+      int n = 0;
+      for (uint32_t u : neighbours[v]) {
+        if (!known[u]) continue;
+        for (int m = 0; m < m_count; ++m) sum[m] += state->weights[size_t(u) * m_count + m];
+        ++n;
+      }
+      if (n == 0) continue;
+      for (int m = 0; m < m_count; ++m) state->weights[v * m_count + m] = static_cast<float>(sum[m] / n);
+      newly.push_back(static_cast<uint32_t>(v));
+    }
+    if (newly.empty()) break;
+    for (uint32_t v : newly) known[v] = 1;
+  }
+}
+
+void ResidualStats(const ObservationSet& observations, const std::vector<uint32_t>& ids,
+                   const std::vector<float>& responses, const ReflectanceState& state, double* sse, double* weight) {
+  const int b_count = state.num_lobes();
+  struct Acc {
+    double sse = 0, w = 0;
+  };
+  tbb::combinable<Acc> acc;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, ids.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    Acc& a = acc.local();
+    std::vector<float> rho(b_count * 3);
+    for (size_t k = r.begin(); k < r.end(); ++k) {
+      const Observation& ob = observations.records[ids[k]];
+      state.VertexLobeWeights(ob.vertex, rho.data());
+      const float* resp = responses.data() + k * b_count * 3;
+      for (int c = 0; c < 3; ++c) {
+        double pred = 0;
+        for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * resp[b * 3 + c];
+        const double e = ob.rgb[c] - pred;
+        a.sse += ob.confidence * e * e;
+      }
+      a.w += 3 * ob.confidence;
+    }
+  });
+  *sse = 0;
+  *weight = 0;
+  acc.combine_each([&](const Acc& a) {
+    *sse += a.sse;
+    *weight += a.w;
+  });
+}
+
+}  // namespace relight

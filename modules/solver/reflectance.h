@@ -1,0 +1,45 @@
+// The reflectance step (Haber et al. 2009, §5.2, eqs. 11-12): with every
+// environment map fixed, each observation's per-lobe responses
+// p_{o,b,c} = a_{o,b}·L_{i,c} make the model linear in the reflectance.
+// Alternately: per-vertex material weights w_v ≥ 0 (a tiny NNLS per vertex,
+// with a penalty on Σ_m w_{v,m} favouring few materials) and the materials
+// c_{m,b} ≥ 0 (one NNLS per channel over all observations).
+// Initialisation: k-means on (cos 2πH, sin 2πH, S) of the per-vertex mean
+// colours, each region's median colour as its diffuse colour, weights from
+// the distance to the centroids (§5.2, last paragraph).
+#pragma once
+
+#include <vector>
+
+#include "geometry/mesh.h"
+#include "solver/inverse_options.h"
+#include "solver/model.h"
+
+namespace relight {
+
+// Per-lobe responses of the given observations under the current lighting:
+// out[(k * B + b) * 3 + c] for observation ids[k].
+std::vector<float> ComputeLobeResponses(const TransportStore& transport, const ObservationSet& observations,
+                                        const std::vector<uint32_t>& ids, const LightingState& lighting);
+
+// k-means initialisation of materials and weights from the observations `train`.
+ReflectanceState InitializeReflectance(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                                       size_t num_vertices, const std::vector<BrdfLobe>& basis, int num_materials,
+                                       int seed);
+
+// Weights step; `responses` as from ComputeLobeResponses over `train`.
+void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                  const std::vector<float>& responses, double sparsity, ReflectanceState* state);
+
+// Materials step.
+void SolveMaterials(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                    const std::vector<float>& responses, ReflectanceState* state);
+
+// Weights of vertices without observations, by averaging over mesh neighbours (repeated diffusion).
+void FillUnobservedWeights(const TriangleMesh& mesh, const std::vector<char>& observed, ReflectanceState* state);
+
+// Weighted sum of squared residuals Σ α (y − ŷ)² and the weight sum over `ids`.
+void ResidualStats(const ObservationSet& observations, const std::vector<uint32_t>& ids,
+                   const std::vector<float>& responses, const ReflectanceState& state, double* sse, double* weight);
+
+}  // namespace relight

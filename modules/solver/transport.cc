@@ -1,0 +1,260 @@
+#include "solver/transport.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/progress.h"
+#include "sphere/frame.h"
+#include "sphere/octahedral.h"
+#include "sphere/sh.h"
+#include "wavelet/haar.h"
+
+namespace relight {
+
+double LobeHalfVectorCutoff(const BrdfLobe& lobe) {
+  if (lobe.model != BrdfModel::kGgx && lobe.model != BrdfModel::kCookTorrance) return -1.0;
+  const double a2 = lobe.roughness * lobe.roughness;
+  auto d = [&](double cos_h) {
+    const double c2 = cos_h * cos_h, t2 = (1 - c2) / c2;
+    if (lobe.model == BrdfModel::kCookTorrance) return std::exp(-t2 / a2) / (a2 * c2 * c2);
+    return a2 / (c2 * c2 * (a2 + t2) * (a2 + t2));
+  };
+  const double peak = d(1.0);
+  for (int k = 1; k <= 900; ++k) {
+    const double theta = k * (M_PI / 2) / 900.0;
+    if (d(std::cos(theta)) < 1e-5 * peak) return std::cos(theta);
+  }
+  return -1.0;
+}
+
+double PhongMirrorCutoff(const BrdfLobe& lobe) {
+  if (lobe.model != BrdfModel::kPhong || lobe.exponent <= 0) return -1.0;
+  return std::exp(std::log(1e-5) / lobe.exponent);
+}
+
+TransportStore::Row TransportStore::Get(size_t observation, uint32_t vertex, int lobe) const {
+  const size_t r = view_dependent_[lobe] ? vertex_rows_ + observation * num_dependent_ + slot_[lobe]
+                                         : size_t(vertex) * num_independent_ + slot_[lobe];
+  return {indices_.data() + offsets_[r], values_.data() + offsets_[r], sizes_[r]};
+}
+
+float TransportStore::Dot(size_t observation, uint32_t vertex, int lobe, const float* dense) const {
+  const Row row = Get(observation, vertex, lobe);
+  float s = 0.0f;
+  for (uint32_t k = 0; k < row.size; ++k) s += row.value[k] * dense[row.index[k]];
+  return s;
+}
+
+namespace {
+
+// One sparse row under construction.
+struct PendingRow {
+  size_t row;
+  std::vector<uint16_t> index;
+  std::vector<float> value;
+};
+
+// Per-vertex precomputation: the visible local texels with their weights
+// V·Ω·cos, local directions, and their global footprint.
+struct VertexTexels {
+  std::vector<Eigen::Vector3f> dir_local;
+  std::vector<float> weight;             // V_j Ω_j cos_j
+  std::vector<std::array<uint16_t, 4>> splat_index;  // haar: bilinear global texels
+  std::vector<std::array<float, 4>> splat_weight;
+};
+
+void Splat(const Eigen::Vector3f& dir_world, int n, std::array<uint16_t, 4>* idx, std::array<float, 4>* w) {
+  const Eigen::Vector2d st = OctEncode(dir_world.cast<double>());
+  const double x = st.x() * n - 0.5, y = st.y() * n - 0.5;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+  const int dx[4] = {0, 1, 0, 1}, dy[4] = {0, 0, 1, 1};
+  const float wt[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2i t = OctWrapTexel(x0 + dx[k], y0 + dy[k], n);
+    (*idx)[k] = static_cast<uint16_t>(t.y() * n + t.x());
+    (*w)[k] = wt[k];
+  }
+}
+
+}  // namespace
+
+TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& visibility,
+                              const ObservationSet& observations, const TransportOptions& o) {
+  RELIGHT_CHECK(mesh.normals.size() == mesh.num_vertices());
+  RELIGHT_CHECK_EQ(visibility.per_vertex.size(), mesh.num_vertices());
+  RELIGHT_CHECK_EQ(observations.num_vertices, mesh.num_vertices());
+  const bool haar = o.lighting_basis == "haar";
+  const int n_global = o.env_resolution;
+  TransportStore store;
+  store.dim_ = haar ? n_global * n_global : ShNumCoefficients(o.sh_order);
+  RELIGHT_CHECK(store.dim_ <= 65536) << "env_resolution too large for 16-bit row indices";
+  const int num_lobes = static_cast<int>(o.basis.size());
+  store.view_dependent_.resize(num_lobes);
+  store.slot_.resize(num_lobes);
+  for (int b = 0; b < num_lobes; ++b) {
+    const bool dep = o.basis[b].model != BrdfModel::kLambertian;
+    store.view_dependent_[b] = dep;
+    store.slot_[b] = dep ? store.num_dependent_++ : store.num_independent_++;
+  }
+  const size_t nv = mesh.num_vertices(), no = observations.records.size();
+  store.vertex_rows_ = nv * store.num_independent_;
+  const size_t total_rows = store.vertex_rows_ + no * store.num_dependent_;
+
+  // Observations grouped by vertex.
+  std::vector<uint32_t> first(nv + 1, 0);
+  for (const auto& ob : observations.records) ++first[ob.vertex + 1];
+  for (size_t v = 0; v < nv; ++v) first[v + 1] += first[v];
+  std::vector<uint32_t> by_vertex(no);
+  {
+    std::vector<uint32_t> cursor(first.begin(), first.end() - 1);
+    for (size_t k = 0; k < no; ++k) by_vertex[cursor[observations.records[k].vertex]++] = static_cast<uint32_t>(k);
+  }
+
+  const int n_local = visibility.resolution;
+  const std::vector<Eigen::Vector3d> local_dirs = HemiOctTexelDirections(n_local);
+  const std::vector<double> local_solid_angles = HemiOctTexelSolidAngles(n_local);
+  std::vector<double> half_cutoff(num_lobes), mirror_cutoff(num_lobes);
+  for (int b = 0; b < num_lobes; ++b) {
+    half_cutoff[b] = LobeHalfVectorCutoff(o.basis[b]);
+    mirror_cutoff[b] = PhongMirrorCutoff(o.basis[b]);
+  }
+  std::unique_ptr<ShHemiOctProjector> sh;
+  if (!haar) sh = std::make_unique<ShHemiOctProjector>(n_local, o.sh_order);
+
+  // Rows are built per block of vertices and merged in block order.
+  constexpr size_t kBlock = 256;
+  const size_t num_blocks = (nv + kBlock - 1) / kBlock;
+  std::vector<std::vector<PendingRow>> blocks(num_blocks);
+  Progress progress("transport rows", static_cast<int64_t>(nv));
+  tbb::parallel_for(size_t(0), num_blocks, [&](size_t blk) {
+    const size_t v_begin = blk * kBlock, v_end = std::min(nv, v_begin + kBlock);
+    std::vector<PendingRow>& out = blocks[blk];
+    std::vector<float> pixel(haar ? store.dim_ : 0), coeffs(haar ? store.dim_ : 0);
+    std::vector<float> texel_integrals(size_t(n_local) * n_local);
+    std::vector<double> sh_coeffs(haar ? 0 : store.dim_);
+    VertexTexels t;
+    // Haar row from texel values: splat onto the global map, transform, truncate.
+    auto emit_haar = [&](size_t row, const std::vector<float>& values, const std::vector<int>& texels) {
+      PendingRow pr;
+      pr.row = row;
+      std::fill(pixel.begin(), pixel.end(), 0.0f);
+      for (size_t q = 0; q < texels.size(); ++q) {
+        const int j = texels[q];
+        for (int k = 0; k < 4; ++k) pixel[t.splat_index[j][k]] += values[q] * t.splat_weight[j][k];
+      }
+      HaarForward(pixel.data(), n_global, coeffs.data());
+      SparseCoefficients kept = KeepEnergy(coeffs.data(), n_global, o.keep_energy);
+      if (static_cast<int>(kept.size()) > o.max_coefficients) {
+        kept = KeepLargest(coeffs.data(), n_global, static_cast<size_t>(o.max_coefficients));
+      }
+      pr.index.assign(kept.index.begin(), kept.index.end());
+      pr.value = std::move(kept.value);
+      return pr;
+    };
+    for (size_t v = v_begin; v < v_end; ++v) {
+      const std::vector<float> vis = visibility.DenseMap(v);
+      const Eigen::Vector3f nrm = mesh.normals[v];
+      const LocalFrame<float> frame = FrameFromNormal<float>(nrm);
+      const LocalFrame<double> frame_d = FrameFromNormal<double>(nrm.cast<double>());
+      // Visible texels of this vertex.
+      std::vector<int> visible;
+      t.dir_local.assign(local_dirs.size(), Eigen::Vector3f::Zero());
+      t.weight.assign(local_dirs.size(), 0.0f);
+      if (haar) {
+        t.splat_index.resize(local_dirs.size());
+        t.splat_weight.resize(local_dirs.size());
+      }
+      for (size_t j = 0; j < local_dirs.size(); ++j) {
+        const float vj = std::clamp(vis[j], 0.0f, 1.0f);
+        if (vj <= 1e-4f) continue;
+        const Eigen::Vector3f d = local_dirs[j].cast<float>();
+        t.dir_local[j] = d;
+        t.weight[j] = static_cast<float>(vj * local_solid_angles[j] * std::max(0.0, local_dirs[j].z()));
+        if (t.weight[j] <= 0) continue;
+        if (haar) Splat(frame.ToWorld(d), n_global, &t.splat_index[j], &t.splat_weight[j]);
+        visible.push_back(static_cast<int>(j));
+      }
+      std::vector<float> values;
+      std::vector<int> support;
+      auto finish = [&](size_t row) {
+        if (haar) {
+          out.push_back(emit_haar(row, values, support));
+        } else {
+          std::fill(texel_integrals.begin(), texel_integrals.end(), 0.0f);
+          for (size_t q = 0; q < support.size(); ++q) texel_integrals[support[q]] = values[q];
+          sh->ProjectIntegrals(texel_integrals.data(), frame_d, sh_coeffs.data());
+          PendingRow pr;
+          pr.row = row;
+          for (int k = 0; k < store.dim_; ++k) {
+            pr.index.push_back(static_cast<uint16_t>(k));
+            pr.value.push_back(static_cast<float>(sh_coeffs[k]));
+          }
+          out.push_back(std::move(pr));
+        }
+      };
+      // View-independent (Lambertian) lobes: once per vertex.
+      for (int b = 0; b < num_lobes; ++b) {
+        if (store.view_dependent_[b]) continue;
+        values.clear();
+        support = visible;
+        for (int j : visible) values.push_back(t.weight[j] * static_cast<float>(1.0 / M_PI));
+        finish(size_t(v) * store.num_independent_ + store.slot_[b]);
+      }
+      // View-dependent lobes: per observation.
+      for (uint32_t q = first[v]; q < first[v + 1]; ++q) {
+        const uint32_t obs = by_vertex[q];
+        const Observation& ob = observations.records[obs];
+        const Eigen::Vector3f wo(ob.view_local[0], ob.view_local[1], ob.view_local[2]);
+        const Eigen::Vector3f mirror(-wo.x(), -wo.y(), wo.z());
+        for (int b = 0; b < num_lobes; ++b) {
+          if (!store.view_dependent_[b]) continue;
+          const BrdfLobe& lobe = o.basis[b];
+          values.clear();
+          support.clear();
+          const float hc = static_cast<float>(half_cutoff[b]), mc = static_cast<float>(mirror_cutoff[b]);
+          for (int j : visible) {
+            const Eigen::Vector3f& wi = t.dir_local[j];
+            if (mc > -1 && wi.dot(mirror) < mc) continue;
+            if (hc > -1) {
+              const Eigen::Vector3f h = (wi + wo).normalized();
+              if (h.z() < hc) continue;
+            }
+            const float f = lobe.Eval<float>(wi, wo);
+            if (f <= 0) continue;
+            values.push_back(f * t.weight[j]);
+            support.push_back(j);
+          }
+          finish(store.vertex_rows_ + size_t(obs) * store.num_dependent_ + store.slot_[b]);
+        }
+      }
+      progress.Advance();
+    }
+  });
+  progress.Finish();
+
+  // Merge blocks into the pool.
+  store.offsets_.assign(total_rows, 0);
+  store.sizes_.assign(total_rows, 0);
+  size_t total = 0;
+  for (const auto& blk : blocks)
+    for (const auto& r : blk) total += r.index.size();
+  store.indices_.reserve(total);
+  store.values_.reserve(total);
+  for (auto& blk : blocks) {
+    for (auto& r : blk) {
+      store.offsets_[r.row] = store.indices_.size();
+      store.sizes_[r.row] = static_cast<uint32_t>(r.index.size());
+      store.indices_.insert(store.indices_.end(), r.index.begin(), r.index.end());
+      store.values_.insert(store.values_.end(), r.value.begin(), r.value.end());
+    }
+    blk.clear();
+    blk.shrink_to_fit();
+  }
+  return store;
+}
+
+}  // namespace relight

@@ -1,0 +1,84 @@
+// Transport rows of the bilinear model (Haber et al. 2009, §4.3, eqs. 7-8):
+// for an observation o of vertex v from local view direction w_o and a basis
+// lobe b, the row a_{o,b} such that
+//     ∫ V_v(w) f_b(w, w_o) cos(w) L(R_v w) dw = a_{o,b} · L,
+// with L a photo's environment map. A measurement is then
+//     y_o = Σ_b ρ_{v,b} a_{o,b} · L_i        (bilinear in ρ and L).
+//
+// Rows are built once per solve. "pixel" route: the vertex's visibility map
+// (hemi-octahedral, local frame), the BRDF slice f_b(·, w_o) cos dω and the
+// visibility multiply texel by texel; each local texel is splatted with
+// bilinear weights onto the global octahedral map (the same bilinear
+// reconstruction the recovered maps are rendered with), and the result is
+// Haar-transformed and truncated to the coefficients carrying its energy.
+// Lambertian lobes do not depend on w_o and are stored once per vertex.
+// For the SH baseline the same texel integrals are projected onto world-frame
+// spherical harmonics (dense rows).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "brdf/brdf.h"
+#include "geometry/mesh.h"
+#include "observe/observations.h"
+#include "visibility/visibility.h"
+
+namespace relight {
+
+struct TransportOptions {
+  std::vector<BrdfLobe> basis;
+  std::string lighting_basis = "haar";  // haar or sh
+  int env_resolution = 32;              // global octahedral side (haar)
+  int sh_order = 2;
+  double keep_energy = 0.999;           // haar row truncation
+  int max_coefficients = 256;
+};
+
+// Compact storage of all rows: one pool of (index, value) pairs.
+class TransportStore {
+ public:
+  // Dimension of a row: env_resolution² (haar) or (sh_order+1)² (sh).
+  int dim() const { return dim_; }
+  int num_lobes() const { return static_cast<int>(view_dependent_.size()); }
+  bool view_dependent(int lobe) const { return view_dependent_[lobe]; }
+  // Row of observation `o` (index into the observation set) and lobe `b`.
+  struct Row {
+    const uint16_t* index;
+    const float* value;
+    uint32_t size;
+  };
+  Row Get(size_t observation, uint32_t vertex, int lobe) const;
+  // Dot product of a row with a dense coefficient vector.
+  float Dot(size_t observation, uint32_t vertex, int lobe, const float* dense) const;
+  size_t num_coefficients() const { return values_.size(); }
+  size_t bytes() const { return values_.size() * 6 + offsets_.size() * 12; }
+
+ private:
+  friend TransportStore BuildTransport(const TriangleMesh&, const VisibilityData&, const ObservationSet&,
+                                       const TransportOptions&);
+  int dim_ = 0;
+  std::vector<bool> view_dependent_;
+  std::vector<int> slot_;                 // lobe -> slot among view-(in)dependent lobes
+  int num_independent_ = 0, num_dependent_ = 0;
+  // Row r: pool [offsets_[r], offsets_[r] + sizes_[r]). Vertex rows first: v * num_independent_ + slot;
+  // then observation rows: vertex_rows_ + o * num_dependent_ + slot.
+  size_t vertex_rows_ = 0;
+  std::vector<uint64_t> offsets_;
+  std::vector<uint32_t> sizes_;
+  std::vector<uint16_t> indices_;
+  std::vector<float> values_;
+};
+
+// Builds every row for the observations (vertex normals required).
+TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& visibility,
+                              const ObservationSet& observations, const TransportOptions& options);
+
+// Cosine of the half-vector angle beyond which a microfacet lobe's D is below
+// 1e-5 of its peak (used to skip texels); -1 for lobes evaluated everywhere.
+double LobeHalfVectorCutoff(const BrdfLobe& lobe);
+// Cosine of the angle to the mirror direction beyond which a Phong lobe is below 1e-5 of its peak.
+double PhongMirrorCutoff(const BrdfLobe& lobe);
+
+}  // namespace relight
