@@ -157,8 +157,8 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   lighting.sh_order = o.sh_order;
   lighting.Resize(num_photos);
   ReflectanceState& reflectance = result.reflectance;
-  if (known != nullptr && known->has_reflectance && o.fixed_reflectance) {
-    reflectance = known->reflectance;
+  if (known != nullptr && known->has_reflectance) {
+    reflectance = known->reflectance;  // fixed, or a warm start
   } else {
     reflectance = InitializeReflectance(obs, train, nv, basis, o.materials, o.seed);
   }
@@ -185,7 +185,10 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
     const LightingState prev_lighting = lighting;
     const ReflectanceState prev_reflectance = reflectance;
     if (solve_lighting) {
-      const LightingStepResult lr = SolveLighting(transport, obs, subset, reflectance, o, &lighting);
+      const bool coarse = solve_reflectance && o.lighting_basis == "haar" && iter < o.coarse_iterations &&
+                          o.env_resolution >= 16;
+      const LightingStepResult lr =
+          SolveLighting(transport, obs, subset, reflectance, o, &lighting, coarse ? o.env_resolution / 2 : 0);
       rec.lighting_seconds = lr.seconds;
       rec.photo_rmse = lr.photo_rmse;
     }

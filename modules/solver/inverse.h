@@ -27,7 +27,9 @@ struct InverseProblem {
 
 // Optional known quantities (synthetic scenes): per-photo octahedral RGB maps
 // at the solver's resolution (photo units, i.e. including exposure and white
-// balance) and the true reflectance.
+// balance) and the true reflectance. They are held fixed with the
+// fixed_lighting / fixed_reflectance options; a known reflectance that is not
+// fixed is the starting point instead of the k-means initialisation.
 struct KnownQuantities {
   std::vector<std::vector<float>> lighting_oct_rgb;  // [photo][texel * 3 + c]
   ReflectanceState reflectance;

@@ -33,7 +33,8 @@ struct InverseOptions {
   std::string robust_loss = "huber";    // none, huber or cauchy
   double robust_scale = 2.0;            // robust threshold in units of the residuals' robust sigma
   std::string qp_solver = "projected_newton";  // projected_newton or ceres
-  int lighting_max_observations = 12000;       // per photo; a fixed random subset when there are more
+  int lighting_max_observations = 4096;        // per photo; a fixed random subset when there are more
+  int coarse_iterations = 3;            // first iterations solve lighting at half resolution (haar)
 
   // Alternation.
   int max_iterations = 6;               // outer lighting/reflectance iterations
@@ -85,6 +86,10 @@ struct InverseOptions {
     t->Add("lighting_max_observations", &lighting_max_observations,
            "Observations per photo used by lighting steps (a fixed random subset when there are more).")
         .Min(16);
+    t->Add("coarse_iterations", &coarse_iterations,
+           "The first iterations solve the lighting at half resolution (Haar coarse levels only; 8x cheaper), "
+           "then at full resolution.")
+        .Range(0, 100);
     t->Add("max_iterations", &max_iterations, "Outer lighting/reflectance iterations.").Range(1, 100);
     t->Add("tolerance", &tolerance, "Stop when the training objective changes by less than this (relative).")
         .Range(0, 1);

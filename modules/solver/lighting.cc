@@ -83,11 +83,15 @@ Eigen::VectorXd SolveShNonNegative(const Eigen::MatrixXd& Q, const Eigen::Vector
 
 LightingStepResult SolveLighting(const TransportStore& transport, const ObservationSet& observations,
                                  const std::vector<std::vector<uint32_t>>& subset, const ReflectanceState& reflectance,
-                                 const InverseOptions& options, LightingState* lighting) {
+                                 const InverseOptions& options, LightingState* lighting, int solve_resolution) {
   Timer timer;
   const bool haar = lighting->basis == "haar";
-  const int dim = lighting->dim;
-  const int n = lighting->env_resolution;
+  const int n_full = lighting->env_resolution;
+  // Coarse solves use the top-left block of the Haar layout (see the header).
+  const int n = haar && solve_resolution > 0 ? std::min(solve_resolution, n_full) : n_full;
+  const int block = n_full / n;                       // fine texels per coarse texel side
+  const int dim = haar ? n * n : lighting->dim;
+  const float coarse_scale = static_cast<float>(block);  // Haar coefficient ratio between the two grids
   const int num_photos = static_cast<int>(subset.size());
   const int num_lobes = reflectance.num_lobes();
   LightingStepResult result;
@@ -135,7 +139,14 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
           const float s = rho[b * 3 + c];
           if (s == 0.0f) continue;
           float* dst = a[c].row(r).data();
-          for (uint32_t k = 0; k < row.size; ++k) dst[row.index[k]] += s * row.value[k];
+          if (block == 1) {
+            for (uint32_t k = 0; k < row.size; ++k) dst[row.index[k]] += s * row.value[k];
+          } else {
+            for (uint32_t k = 0; k < row.size; ++k) {
+              const int rr = row.index[k] / n_full, cc = row.index[k] % n_full;
+              if (rr < n && cc < n) dst[rr * n + cc] += s * coarse_scale * row.value[k];
+            }
+          }
         }
       }
       if (haar) {
@@ -161,7 +172,19 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         q_mat += lambda * regularizer;
         // A vanishing ridge keeps texels no observation sees well-posed (they stay at the smooth fill-in).
         q_mat.diagonal().array() += 1e-9 * std::max(1e-30, q_mat.diagonal().maxCoeff());
-        Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXf>(lighting->values[i][c].data(), dim).cast<double>();
+        // Warm start: the current map, block-averaged to the solve resolution.
+        Eigen::VectorXd x(dim);
+        if (block == 1) {
+          x = Eigen::Map<const Eigen::VectorXf>(lighting->values[i][c].data(), dim).cast<double>();
+        } else {
+          for (int k = 0; k < dim; ++k) {
+            double sum = 0;
+            const int i0 = (k % n) * block, j0 = (k / n) * block;
+            for (int dj = 0; dj < block; ++dj)
+              for (int di = 0; di < block; ++di) sum += lighting->values[i][c][(j0 + dj) * n_full + i0 + di];
+            x[k] = sum / (block * block);
+          }
+        }
         if (haar) {
           const QpSummary s = SolveNonNegativeQp(options.qp_solver, q_mat, rhs, &x);
           result.qp_iterations[i] += s.iterations;
@@ -170,7 +193,14 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
           x = SolveShNonNegative(q_mat, rhs, sh_constraint, &it);
           result.qp_iterations[i] += it;
         }
-        for (int k = 0; k < dim; ++k) lighting->values[i][c][k] = static_cast<float>(x[k]);
+        if (block == 1) {
+          for (int k = 0; k < dim; ++k) lighting->values[i][c][k] = static_cast<float>(x[k]);
+        } else {  // piecewise-constant upsampling to the full resolution
+          for (int k = 0; k < n_full * n_full; ++k) {
+            const int coarse = ((k / n_full) / block) * n + (k % n_full) / block;
+            lighting->values[i][c][k] = static_cast<float>(x[coarse]);
+          }
+        }
         const Eigen::VectorXf pred = a[c] * x.cast<float>();
         for (Eigen::Index r = 0; r < rows; ++r) {
           const double e = double(y[c][r]) - pred[r];

@@ -22,9 +22,14 @@ struct LightingStepResult {
 };
 
 // Solves every photo's map. `subset[i]` lists the observation indices of photo i to fit.
+// `solve_resolution` (Haar only, a power of two <= env_resolution) restricts the
+// maps to piecewise-constant blocks of that resolution: in the non-standard Haar
+// layout the coarse levels are exactly the top-left block of the coefficients,
+// so rows are restricted, the QP is smaller (coarse-to-fine), and the result is
+// written back at full resolution.
 LightingStepResult SolveLighting(const TransportStore& transport, const ObservationSet& observations,
                                  const std::vector<std::vector<uint32_t>>& subset, const ReflectanceState& reflectance,
-                                 const InverseOptions& options, LightingState* lighting);
+                                 const InverseOptions& options, LightingState* lighting, int solve_resolution = 0);
 
 // Dense Δ^T Δ of the graph Laplacian of an n×n octahedral grid (4-neighbours across the folds).
 Eigen::MatrixXd OctahedralLaplacianGram(int n);

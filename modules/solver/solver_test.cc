@@ -10,6 +10,7 @@
 #include "geometry/primitives.h"
 #include "geometry/raycaster.h"
 #include "solver/inverse.h"
+#include "solver/synthetic_problem.h"
 #include "solver/lobe_spec.h"
 #include "sphere/frame.h"
 #include "sphere/octahedral.h"
@@ -20,109 +21,17 @@ namespace {
 
 constexpr int kEnv = 16;
 
-// Sky gradient plus a sun blob; returns RGB radiance.
-Eigen::Vector3d Environment(const Eigen::Vector3d& d, const Eigen::Vector3d& sun) {
-  const double up = std::max(0.0, d.z());
-  Eigen::Vector3d sky = Eigen::Vector3d(0.3, 0.4, 0.6) * (0.3 + 0.7 * up) + Eigen::Vector3d::Constant(0.05);
-  const double a = std::acos(std::clamp(d.dot(sun), -1.0, 1.0));
-  sky += Eigen::Vector3d(6.0, 5.5, 4.5) * std::exp(-a * a / (2 * 0.2 * 0.2));
-  return sky;
-}
+using Scene = SyntheticProblem;
 
-struct Scene {
-  InverseProblem problem;
-  KnownQuantities truth;
-  std::vector<Eigen::Vector3d> suns;
-};
-
-Scene MakeScene(const std::vector<std::string>& basis_specs, bool glossy) {
-  Scene s;
-  TriangleMesh mesh = MakeIcosphere(5);
-  for (auto& v : mesh.vertices) v.z() += 1.05f;
-  mesh.ComputeVertexNormals();
-  const TriangleMesh ground = MakeGrid(-6, 6, -6, 6, 0, 4, 4);
-  s.problem.mesh = mesh;
-  // Visibility (all coefficients kept).
-  const RayCaster caster({&mesh, &ground});
-  VisibilityOptions vo;
-  vo.resolution = 16;
-  vo.supersampling = 2;
-  std::vector<uint32_t> ids(mesh.num_vertices());
-  for (size_t v = 0; v < ids.size(); ++v) ids[v] = static_cast<uint32_t>(v);
-  std::vector<float> maps;
-  BakeVisibilityMaps(mesh, caster, ids, vo, &maps);
-  s.problem.visibility.resolution = 16;
-  s.problem.visibility.supersampling = 2;
-  for (size_t v = 0; v < ids.size(); ++v) {
-    std::vector<float> c(256);
-    HaarForward(maps.data() + v * 256, 16, c.data());
-    s.problem.visibility.per_vertex.push_back(SparseFromDense(c.data(), 16));
+Scene MakeScene(const std::vector<std::string>& basis, bool glossy) {
+  SyntheticProblemOptions o;
+  o.basis = basis;
+  o.env_resolution = kEnv;
+  Scene s = MakeSyntheticProblem(o);
+  if (!glossy) {
+    for (size_t k = 0; k < s.truth.reflectance.coefficients.size(); ++k)
+      if (k % basis.size() != 0) s.truth.reflectance.coefficients[k].setZero();
   }
-  // True reflectance: a red diffuse material and a white glossy one, blended by position.
-  ReflectanceState& r = s.truth.reflectance;
-  r.basis = ParseLobeSpecs(basis_specs);
-  r.num_materials = 2;
-  const int b_count = r.num_lobes();
-  r.coefficients.assign(2 * b_count, Eigen::Vector3d::Zero());
-  r.coefficients[0] = {0.7, 0.2, 0.15};
-  r.coefficients[b_count] = {0.45, 0.45, 0.45};
-  if (glossy && b_count > 1) r.coefficients[b_count + 1] = {0.5, 0.5, 0.5};
-  r.weights.resize(mesh.num_vertices() * 2);
-  for (size_t v = 0; v < mesh.num_vertices(); ++v) {
-    const float w0 = std::clamp(0.5f + 2.0f * mesh.vertices[v].x(), 0.0f, 1.0f);
-    r.weights[v * 2] = w0;
-    r.weights[v * 2 + 1] = 1.0f - w0;
-  }
-  s.truth.has_reflectance = true;
-  // Photos: a distant camera each, a sun each.
-  const int num_photos = 12;
-  ObservationSet& obs = s.problem.observations;
-  obs.num_photos = num_photos;
-  obs.num_vertices = static_cast<uint32_t>(mesh.num_vertices());
-  for (int i = 0; i < num_photos; ++i) {
-    const double az = 2 * M_PI * i / num_photos;
-    const Eigen::Vector3d cam = Eigen::Vector3d(std::cos(az), std::sin(az), 0.3 + 0.4 * (i % 2)).normalized();
-    const double sun_az = 0.7 + 1.3 * i, sun_el = 0.3 + 0.15 * (i % 3);
-    s.suns.push_back(Eigen::Vector3d(std::cos(sun_el) * std::cos(sun_az), std::cos(sun_el) * std::sin(sun_az),
-                                     std::sin(sun_el)));
-    std::vector<float> oct(kEnv * kEnv * 3);
-    for (int k = 0; k < kEnv * kEnv; ++k) {
-      const Eigen::Vector3d rgb = Environment(OctTexelDirection(k % kEnv, k / kEnv, kEnv), s.suns.back());
-      for (int c = 0; c < 3; ++c) oct[k * 3 + c] = static_cast<float>(rgb[c]);
-    }
-    s.truth.lighting_oct_rgb.push_back(oct);
-    ObservedPhoto p;
-    p.index = i;
-    p.name = "photo_" + std::to_string(i) + ".jpg";
-    s.problem.photos.push_back(p);
-    for (size_t v = 0; v < mesh.num_vertices(); ++v) {
-      const Eigen::Vector3d n = mesh.normals[v].cast<double>();
-      if (n.dot(cam) < 0.1) continue;
-      Observation ob;
-      ob.photo = i;
-      ob.vertex = static_cast<uint32_t>(v);
-      ob.confidence = 1.0f;
-      const Eigen::Vector3d local = FrameFromNormal<double>(n).ToLocal(cam);
-      for (int k = 0; k < 3; ++k) ob.view_local[k] = static_cast<float>(local[k]);
-      obs.records.push_back(ob);
-    }
-  }
-  s.truth.has_lighting = true;
-  // Measurements from the forward model.
-  TransportOptions to;
-  to.basis = r.basis;
-  to.env_resolution = kEnv;
-  to.keep_energy = 1.0;
-  to.max_coefficients = kEnv * kEnv;
-  const TransportStore transport = BuildTransport(mesh, s.problem.visibility, obs, to);
-  LightingState l;
-  l.env_resolution = kEnv;
-  l.Resize(num_photos);
-  for (int i = 0; i < num_photos; ++i)
-    for (int c = 0; c < 3; ++c)
-      for (int k = 0; k < kEnv * kEnv; ++k) l.values[i][c][k] = s.truth.lighting_oct_rgb[i][k * 3 + c];
-  l.UpdateCoefficients();
-  for (size_t o = 0; o < obs.records.size(); ++o) Predict(transport, obs, o, r, l, obs.records[o].rgb);
   return s;
 }
 
@@ -141,32 +50,6 @@ InverseOptions BaseOptions(const std::vector<std::string>& basis) {
   return o;
 }
 
-// Relative L2 error of the upper hemisphere of the maps after the best scale per channel.
-double LightingError(const Scene& s, const LightingState& l) {
-  double err = 0, norm = 0;
-  for (size_t i = 0; i < s.truth.lighting_oct_rgb.size(); ++i) {
-    for (int c = 0; c < 3; ++c) {
-      double ab = 0, bb = 0;
-      std::vector<std::pair<double, double>> pairs;
-      for (int k = 0; k < kEnv * kEnv; ++k) {
-        const Eigen::Vector3d d = OctTexelDirection(k % kEnv, k / kEnv, kEnv);
-        if (d.z() < 0.15) continue;  // below: hidden by the ground from every vertex
-        const double w = OctTexelSolidAngle(k % kEnv, k / kEnv, kEnv);
-        const double t = s.truth.lighting_oct_rgb[i][k * 3 + c], e = l.values[i][c][k];
-        pairs.emplace_back(t * std::sqrt(w), e * std::sqrt(w));
-        ab += t * e * w;
-        bb += e * e * w;
-      }
-      const double scale = bb > 0 ? ab / bb : 1.0;
-      for (const auto& [t, e] : pairs) {
-        err += (t - scale * e) * (t - scale * e);
-        norm += t * t;
-      }
-    }
-  }
-  return std::sqrt(err / norm);
-}
-
 class SolverTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -182,11 +65,11 @@ TEST_F(SolverTest, KnownReflectanceRecoversLighting) {
   o.fixed_reflectance = true;
   o.holdout_fraction = 0;
   const InverseResult r = SolveInverse(s.problem, o, &s.truth);
-  const double err = LightingError(s, r.lighting);
+  const double err = LightingRelativeError(s, r.lighting);
   EXPECT_LT(err, 0.15) << "relative L2 error of the recovered maps (upper hemisphere)";
   EXPECT_LT(r.summary.iterations.back().train_rmse, 2e-3);
   // The sun is where it was: brightest upper-hemisphere texel within a texel of the truth.
-  for (size_t i = 0; i < s.suns.size(); ++i) {
+  for (size_t i = 0; i < s.sun_dirs_world.size(); ++i) {
     int best = 0;
     float best_v = -1;
     for (int k = 0; k < kEnv * kEnv; ++k) {
@@ -197,7 +80,7 @@ TEST_F(SolverTest, KnownReflectanceRecoversLighting) {
         best = k;
       }
     }
-    const double deg = std::acos(std::clamp(OctTexelDirection(best % kEnv, best / kEnv, kEnv).dot(s.suns[i]), -1.0,
+    const double deg = std::acos(std::clamp(OctTexelDirection(best % kEnv, best / kEnv, kEnv).dot(s.sun_dirs_world[i]), -1.0,
                                             1.0)) * 180 / M_PI;
     EXPECT_LT(deg, 15.0) << "photo " << i;  // one 16² texel is ~11°
   }
@@ -256,7 +139,7 @@ TEST_F(SolverTest, JointSolveReproducesHeldOutObservationsAndFixesTheGauge) {
   mean_y /= s.problem.observations.records.size();
   const IterationRecord& best = r.summary.iterations[r.summary.best_iteration - 1];
   if (getenv("SOLVER_TEST_VERBOSE")) {
-    std::cerr << "lighting error " << LightingError(s, r.lighting) << "\n";
+    std::cerr << "lighting error " << LightingRelativeError(s, r.lighting) << "\n";
     for (const auto& c : r.reflectance.coefficients) std::cerr << c.transpose() << "\n";
     for (int v = 0; v < 4000; v += 500)
       std::cerr << "w " << r.reflectance.weights[v * 2] << " " << r.reflectance.weights[v * 2 + 1] << " truth "

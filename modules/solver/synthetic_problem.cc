@@ -1,0 +1,211 @@
+#include "solver/synthetic_problem.h"
+
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <random>
+
+#include "geometry/primitives.h"
+#include "geometry/raycaster.h"
+#include "solver/lobe_spec.h"
+#include "sphere/frame.h"
+#include "sphere/octahedral.h"
+#include "wavelet/haar.h"
+
+namespace relight {
+namespace {
+
+// Sky gradient plus a sun blob, RGB radiance.
+Eigen::Vector3d SkyAndSun(const Eigen::Vector3d& d, const Eigen::Vector3d& sun) {
+  const double up = std::max(0.0, d.z());
+  Eigen::Vector3d sky = Eigen::Vector3d(0.3, 0.4, 0.6) * (0.3 + 0.7 * up) + Eigen::Vector3d::Constant(0.05);
+  const double a = std::acos(std::clamp(d.dot(sun), -1.0, 1.0));
+  sky += Eigen::Vector3d(6.0, 5.5, 4.5) * std::exp(-a * a / (2 * 0.2 * 0.2));
+  return sky;
+}
+
+// A lat-long sphere grid with ≈ `vertices` vertices, optionally displaced.
+TriangleMesh Blob(int vertices, double displacement) {
+  const int rings = std::max(8, static_cast<int>(std::sqrt(vertices / 2.0)));
+  const int segments = 2 * rings;
+  TriangleMesh m;
+  m.vertices.emplace_back(0, 0, 1);
+  for (int r = 1; r < rings; ++r) {
+    const double theta = M_PI * r / rings;
+    for (int s = 0; s < segments; ++s) {
+      const double phi = 2 * M_PI * s / segments;
+      const double bump = 1.0 + displacement * std::sin(5 * phi) * std::sin(4 * theta);
+      m.vertices.emplace_back(bump * std::sin(theta) * std::cos(phi), bump * std::sin(theta) * std::sin(phi),
+                              bump * std::cos(theta));
+    }
+  }
+  m.vertices.emplace_back(0, 0, -1);
+  const int south = static_cast<int>(m.vertices.size()) - 1;
+  auto idx = [&](int r, int s) { return 1 + (r - 1) * segments + (s % segments); };
+  for (int s = 0; s < segments; ++s) m.faces.emplace_back(0, idx(1, s), idx(1, s + 1));
+  for (int r = 1; r + 1 < rings; ++r)
+    for (int s = 0; s < segments; ++s) {
+      m.faces.emplace_back(idx(r, s), idx(r + 1, s), idx(r + 1, s + 1));
+      m.faces.emplace_back(idx(r, s), idx(r + 1, s + 1), idx(r, s + 1));
+    }
+  for (int s = 0; s < segments; ++s) m.faces.emplace_back(south, idx(rings - 1, s + 1), idx(rings - 1, s));
+  return m;
+}
+
+}  // namespace
+
+SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
+  SyntheticProblem s;
+  TriangleMesh mesh = o.vertices <= 4100 && o.displacement == 0 ? MakeIcosphere(5) : Blob(o.vertices, o.displacement);
+  for (auto& v : mesh.vertices) v.z() += 1.05f + static_cast<float>(o.displacement);
+  mesh.ComputeVertexNormals();
+  const TriangleMesh ground = MakeGrid(-8, 8, -8, 8, 0, 4, 4);
+  s.problem.mesh = mesh;
+  const size_t nv = mesh.num_vertices();
+
+  // Visibility, every coefficient kept.
+  const RayCaster caster({&mesh, &ground});
+  VisibilityOptions vo;
+  vo.resolution = o.visibility_resolution;
+  vo.supersampling = 2;
+  const int n = vo.resolution;
+  s.problem.visibility.resolution = n;
+  s.problem.visibility.supersampling = 2;
+  s.problem.visibility.per_vertex.resize(nv);
+  const size_t chunk = 4096;
+  for (size_t begin = 0; begin < nv; begin += chunk) {
+    const size_t end = std::min(nv, begin + chunk);
+    std::vector<uint32_t> ids;
+    for (size_t v = begin; v < end; ++v) ids.push_back(static_cast<uint32_t>(v));
+    std::vector<float> maps;
+    BakeVisibilityMaps(mesh, caster, ids, vo, &maps);
+    tbb::parallel_for(size_t(0), ids.size(), [&](size_t q) {
+      std::vector<float> c(n * n);
+      HaarForward(maps.data() + q * n * n, n, c.data());
+      s.problem.visibility.per_vertex[begin + q] = SparseFromDense(c.data(), n);
+    });
+  }
+
+  // Reflectance: materials blended by smooth position-dependent weights.
+  ReflectanceState& r = s.truth.reflectance;
+  r.basis = ParseLobeSpecs(o.basis);
+  r.num_materials = o.materials;
+  const int b_count = r.num_lobes();
+  std::mt19937 rng(static_cast<uint32_t>(o.seed));
+  std::uniform_real_distribution<double> u(0, 1);
+  r.coefficients.assign(size_t(o.materials) * b_count, Eigen::Vector3d::Zero());
+  for (int m = 0; m < o.materials; ++m) {
+    const Eigen::Vector3d diffuse = m == 0 ? Eigen::Vector3d(0.7, 0.2, 0.15)
+                                           : Eigen::Vector3d(0.2 + 0.5 * u(rng), 0.2 + 0.5 * u(rng), 0.2 + 0.5 * u(rng));
+    r.coefficients[m * b_count] = diffuse;
+    if (b_count > 1 && m > 0) r.coefficients[m * b_count + 1 + (m - 1) % (b_count - 1)] = Eigen::Vector3d::Constant(0.5);
+  }
+  if (o.materials == 2) r.coefficients[b_count] = Eigen::Vector3d::Constant(0.45);
+  r.weights.assign(nv * o.materials, 0.0f);
+  for (size_t v = 0; v < nv; ++v) {
+    const Eigen::Vector3f p = mesh.vertices[v];
+    if (o.materials == 2) {
+      const float w0 = std::clamp(0.5f + 2.0f * p.x(), 0.0f, 1.0f);
+      r.weights[v * 2] = w0;
+      r.weights[v * 2 + 1] = 1.0f - w0;
+      continue;
+    }
+    // Smooth partition of unity from angular sectors.
+    double total = 0;
+    std::vector<double> w(o.materials);
+    for (int m = 0; m < o.materials; ++m) {
+      const double a = 2 * M_PI * m / o.materials;
+      const double d = std::cos(std::atan2(p.y(), p.x()) - a) + 0.3 * std::cos(3.0 * p.z() + m);
+      total += w[m] = std::exp(4.0 * d);
+    }
+    for (int m = 0; m < o.materials; ++m) r.weights[v * o.materials + m] = static_cast<float>(w[m] / total);
+  }
+  s.truth.has_reflectance = true;
+
+  // Photos: distant cameras around the object, one sun each.
+  ObservationSet& obs = s.problem.observations;
+  obs.num_photos = o.photos;
+  obs.num_vertices = static_cast<uint32_t>(nv);
+  const int env = o.env_resolution;
+  for (int i = 0; i < o.photos; ++i) {
+    const double az = 2 * M_PI * i / o.photos;
+    const Eigen::Vector3d cam = Eigen::Vector3d(std::cos(az), std::sin(az), 0.3 + 0.4 * (i % 2)).normalized();
+    const double sun_az = 0.7 + 1.3 * i, sun_el = 0.3 + 0.15 * (i % 3);
+    s.sun_dirs_world.push_back(
+        Eigen::Vector3d(std::cos(sun_el) * std::cos(sun_az), std::cos(sun_el) * std::sin(sun_az), std::sin(sun_el)));
+    std::vector<float> oct(size_t(env) * env * 3);
+    for (int k = 0; k < env * env; ++k) {
+      const Eigen::Vector3d rgb = SkyAndSun(OctTexelDirection(k % env, k / env, env), s.sun_dirs_world.back());
+      for (int c = 0; c < 3; ++c) oct[k * 3 + c] = static_cast<float>(rgb[c]);
+    }
+    s.truth.lighting_oct_rgb.push_back(oct);
+    ObservedPhoto p;
+    p.index = i;
+    p.name = "photo_" + std::to_string(i) + ".jpg";
+    s.problem.photos.push_back(p);
+    std::vector<uint8_t> seen(nv, 0);
+    tbb::parallel_for(size_t(0), nv, [&](size_t v) {
+      const Eigen::Vector3d nrm = mesh.normals[v].cast<double>();
+      if (nrm.dot(cam) < o.min_view_cos) return;
+      const Eigen::Vector3f origin = mesh.vertices[v] + 1e-4f * mesh.normals[v];
+      seen[v] = !caster.Occluded({origin, cam.cast<float>()});
+    });
+    for (size_t v = 0; v < nv; ++v) {
+      if (!seen[v]) continue;
+      Observation ob;
+      ob.photo = i;
+      ob.vertex = static_cast<uint32_t>(v);
+      ob.confidence = 1.0f;
+      const Eigen::Vector3d local = FrameFromNormal<double>(mesh.normals[v].cast<double>()).ToLocal(cam);
+      for (int k = 0; k < 3; ++k) ob.view_local[k] = static_cast<float>(local[k]);
+      obs.records.push_back(ob);
+    }
+  }
+  s.truth.has_lighting = true;
+
+  // Measurements from the forward model (exact rows).
+  TransportOptions to;
+  to.basis = r.basis;
+  to.env_resolution = env;
+  to.keep_energy = o.generation_keep_energy;
+  to.max_coefficients = env * env;
+  const TransportStore transport = BuildTransport(mesh, s.problem.visibility, obs, to);
+  LightingState l;
+  l.env_resolution = env;
+  l.Resize(o.photos);
+  for (int i = 0; i < o.photos; ++i)
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < env * env; ++k) l.values[i][c][k] = s.truth.lighting_oct_rgb[i][k * 3 + c];
+  l.UpdateCoefficients();
+  tbb::parallel_for(size_t(0), obs.records.size(),
+                    [&](size_t k) { Predict(transport, obs, k, r, l, obs.records[k].rgb); });
+  return s;
+}
+
+double LightingRelativeError(const SyntheticProblem& s, const LightingState& l) {
+  const int env = l.env_resolution;
+  double err = 0, norm = 0;
+  for (size_t i = 0; i < s.truth.lighting_oct_rgb.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      double ab = 0, bb = 0;
+      std::vector<std::pair<double, double>> pairs;
+      for (int k = 0; k < env * env; ++k) {
+        const Eigen::Vector3d d = OctTexelDirection(k % env, k / env, env);
+        if (d.z() < 0.15) continue;  // below: hidden by the ground from every vertex
+        const double w = OctTexelSolidAngle(k % env, k / env, env);
+        const double t = s.truth.lighting_oct_rgb[i][k * 3 + c], e = l.values[i][c][k];
+        pairs.emplace_back(t * std::sqrt(w), e * std::sqrt(w));
+        ab += t * e * w;
+        bb += e * e * w;
+      }
+      const double scale = bb > 0 ? ab / bb : 1.0;
+      for (const auto& [t, e] : pairs) {
+        err += (t - scale * e) * (t - scale * e);
+        norm += t * t;
+      }
+    }
+  }
+  return std::sqrt(err / norm);
+}
+
+}  // namespace relight
