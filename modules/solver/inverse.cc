@@ -129,6 +129,8 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
       std::sort(s.begin(), s.end());
     }
   }
+  const std::vector<std::vector<uint32_t>> neighbours =
+      o.weight_smoothness > 0 ? VertexNeighbours(problem.mesh) : std::vector<std::vector<uint32_t>>();
   std::vector<char> observed(nv, 0);
   for (uint32_t k : train) observed[obs.records[k].vertex] = 1;
 
@@ -197,7 +199,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
     if (solve_reflectance) {
       for (int inner = 0; inner < o.material_iterations; ++inner) {
         SolveMaterials(obs, train, responses, &reflectance);
-        SolveWeights(obs, train, responses, o.sparsity, &reflectance);
+        SolveWeights(obs, train, responses, o.sparsity, &reflectance, &neighbours, o.weight_smoothness);
       }
     }
     rec.reflectance_seconds = step.Seconds();

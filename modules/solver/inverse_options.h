@@ -26,6 +26,7 @@ struct InverseOptions {
   std::vector<std::string> basis = {"lambertian", "ggx:0.1", "ggx:0.3", "phong:50", "phong:500"};
   int materials = 3;                    // materials (k-means regions at initialisation)
   double sparsity = 1e-3;               // penalty on the sum of per-vertex weights (favours few materials)
+  double weight_smoothness = 0.05;      // pull of a vertex's weights towards its neighbours'
 
   // Lighting step.
   double smoothness = 1e-4;             // Laplacian weight relative to the system's largest diagonal value
@@ -69,6 +70,10 @@ struct InverseOptions {
     t->Add("sparsity", &sparsity,
            "Penalty on the sum of a vertex's material weights, relative to its data term (favours few materials).")
         .Range(0, 1);
+    t->Add("weight_smoothness", &weight_smoothness,
+           "Pull of each vertex's material weights towards its mesh neighbours', relative to its data term "
+           "(0: independent vertices, as in the seed).")
+        .Range(0, 100);
     t->Add("smoothness", &smoothness,
            "Laplacian smoothness of environment maps, relative to the largest diagonal value of the system "
            "(seed: 0.01%).")

@@ -153,10 +153,27 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
   return state;
 }
 
+std::vector<std::vector<uint32_t>> VertexNeighbours(const TriangleMesh& mesh) {
+  std::vector<std::vector<uint32_t>> n(mesh.num_vertices());
+  for (const auto& f : mesh.faces) {
+    for (int k = 0; k < 3; ++k) {
+      n[f[k]].push_back(static_cast<uint32_t>(f[(k + 1) % 3]));
+      n[f[k]].push_back(static_cast<uint32_t>(f[(k + 2) % 3]));
+    }
+  }
+  for (auto& list : n) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  }
+  return n;
+}
+
 void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
-                  const std::vector<float>& responses, double sparsity, ReflectanceState* state) {
+                  const std::vector<float>& responses, double sparsity, ReflectanceState* state,
+                  const std::vector<std::vector<uint32_t>>* neighbours, double smoothness) {
   const int m_count = state->num_materials, b_count = state->num_lobes();
   const size_t nv = state->weights.size() / m_count;
+  const std::vector<float> previous = smoothness > 0 ? state->weights : std::vector<float>();
   std::vector<uint32_t> first, items;
   GroupByVertex(observations, train, nv, &first, &items);
   tbb::parallel_for(size_t(0), nv, [&](size_t v) {
@@ -181,7 +198,15 @@ void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t
     const double scale = std::max(1e-30, g.diagonal().maxCoeff());
     g.diagonal().array() += 1e-9 * scale;
     const double beta = sparsity * std::max(0.0, h.maxCoeff());
-    const Eigen::VectorXd q = h.array() - beta;
+    Eigen::VectorXd q = h.array() - beta;
+    if (smoothness > 0 && neighbours != nullptr && !(*neighbours)[v].empty()) {
+      // Jacobi step of the neighbour coupling, relative to the data term's scale.
+      const double mu = smoothness * g.diagonal().mean();
+      const auto& nb = (*neighbours)[v];
+      g.diagonal().array() += mu * nb.size();
+      for (uint32_t u : nb)
+        for (int m = 0; m < m_count; ++m) q[m] += mu * previous[size_t(u) * m_count + m];
+    }
 
     Eigen::VectorXd w(m_count);
     for (int m = 0; m < m_count; ++m) w[m] = state->weights[v * m_count + m];

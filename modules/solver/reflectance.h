@@ -27,9 +27,16 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
                                        size_t num_vertices, const std::vector<BrdfLobe>& basis, int num_materials,
                                        int seed);
 
-// Weights step; `responses` as from ComputeLobeResponses over `train`.
+// Weights step; `responses` as from ComputeLobeResponses over `train`. With
+// `smoothness` > 0 each vertex's weights are also pulled towards its mesh
+// neighbours' (Σ_edges |w_u − w_v|², weighted relative to the vertex's data term;
+// one Jacobi sweep per call).
 void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
-                  const std::vector<float>& responses, double sparsity, ReflectanceState* state);
+                  const std::vector<float>& responses, double sparsity, ReflectanceState* state,
+                  const std::vector<std::vector<uint32_t>>* neighbours = nullptr, double smoothness = 0.0);
+
+// Vertex adjacency of a mesh (each neighbour once).
+std::vector<std::vector<uint32_t>> VertexNeighbours(const TriangleMesh& mesh);
 
 // Materials step.
 void SolveMaterials(const ObservationSet& observations, const std::vector<uint32_t>& train,

@@ -66,6 +66,56 @@ struct VertexTexels {
   std::vector<std::array<float, 4>> splat_weight;
 };
 
+// The fewest largest-magnitude coefficients holding `fraction` of the energy,
+// at most `cap`, as ascending indices. Selection by nth_element (O(n)) plus a
+// sort of the few kept ones: a full sort of every row dominated the build.
+struct Truncator {
+  std::vector<std::pair<float, uint16_t>> nz;  // (squared magnitude, index)
+
+  void Run(const float* coeffs, int size, double fraction, int cap, std::vector<uint16_t>* index,
+           std::vector<float>* value) {
+    nz.clear();
+    double total = 0;
+    for (int k = 0; k < size; ++k) {
+      if (coeffs[k] == 0.0f) continue;
+      const float e = coeffs[k] * coeffs[k];
+      nz.emplace_back(e, static_cast<uint16_t>(k));
+      total += e;
+    }
+    index->clear();
+    value->clear();
+    if (nz.empty()) return;
+    const double target = fraction * total;
+    auto larger = [](const std::pair<float, uint16_t>& a, const std::pair<float, uint16_t>& b) {
+      return a.first > b.first || (a.first == b.first && a.second < b.second);
+    };
+    size_t keep = nz.size();
+    if (fraction < 1.0 || static_cast<int>(nz.size()) > cap) {
+      size_t k = std::min<size_t>({nz.size(), static_cast<size_t>(cap), 64});
+      for (;;) {
+        std::nth_element(nz.begin(), nz.begin() + (k - 1), nz.end(), larger);
+        std::sort(nz.begin(), nz.begin() + k, larger);
+        double acc = 0;
+        size_t q = 0;
+        while (q < k && acc < target) acc += nz[q++].first;
+        if (acc >= target || k == nz.size() || static_cast<int>(k) >= cap) {
+          keep = q;
+          break;
+        }
+        k = std::min<size_t>({nz.size(), static_cast<size_t>(cap), 4 * k});
+      }
+    }
+    std::sort(nz.begin(), nz.begin() + keep,
+              [](const std::pair<float, uint16_t>& a, const std::pair<float, uint16_t>& b) { return a.second < b.second; });
+    index->reserve(keep);
+    value->reserve(keep);
+    for (size_t q = 0; q < keep; ++q) {
+      index->push_back(nz[q].second);
+      value->push_back(coeffs[nz[q].second]);
+    }
+  }
+};
+
 void Splat(const Eigen::Vector3f& dir_world, int n, std::array<uint16_t, 4>* idx, std::array<float, 4>* w) {
   const Eigen::Vector2d st = OctEncode(dir_world.cast<double>());
   const double x = st.x() * n - 0.5, y = st.y() * n - 0.5;
@@ -137,6 +187,7 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
     std::vector<float> texel_integrals(size_t(n_local) * n_local);
     std::vector<double> sh_coeffs(haar ? 0 : store.dim_);
     VertexTexels t;
+    Truncator truncator;
     // Haar row from texel values: splat onto the global map, transform, truncate.
     auto emit_haar = [&](size_t row, const std::vector<float>& values, const std::vector<int>& texels) {
       PendingRow pr;
@@ -147,12 +198,7 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
         for (int k = 0; k < 4; ++k) pixel[t.splat_index[j][k]] += values[q] * t.splat_weight[j][k];
       }
       HaarForward(pixel.data(), n_global, coeffs.data());
-      SparseCoefficients kept = KeepEnergy(coeffs.data(), n_global, o.keep_energy);
-      if (static_cast<int>(kept.size()) > o.max_coefficients) {
-        kept = KeepLargest(coeffs.data(), n_global, static_cast<size_t>(o.max_coefficients));
-      }
-      pr.index.assign(kept.index.begin(), kept.index.end());
-      pr.value = std::move(kept.value);
+      truncator.Run(coeffs.data(), store.dim_, o.keep_energy, o.max_coefficients, &pr.index, &pr.value);
       return pr;
     };
     for (size_t v = v_begin; v < v_end; ++v) {
