@@ -15,6 +15,8 @@ inline const StageInfo kIngestStage{
 
 struct IngestOptions {
   std::string images;                // Photo folder; empty when the synthesize stage provides the photos.
+  std::string format = "photos";     // photos, or diligent (a DiLiGenT photometric-stereo object folder)
+  int diligent_sphere_subdivisions = 5;  // icosphere levels of the ball fitted to a DiLiGenT mask
   std::string ground_truth;          // Optional ground-truth folder carried along for evaluation.
   bool recursive = false;            // Also scan sub-folders.
   int max_image_size = 1600;         // Longest side in pixels after downscaling; 0 keeps the original size.
@@ -28,6 +30,13 @@ struct IngestOptions {
   void Declare(OptionTable* t) {
     t->Add("images", &images, "Photo folder (JPEG/PNG/TIFF/EXR/HDR). Empty when the synthesize stage runs.")
         .InputDir();
+    t->Add("format", &format,
+           "What ingest.images holds: photos (any folder of photos), or diligent (a DiLiGenT object folder: the "
+           "photos, known lights and mask become a scene with ground truth, docs/RESULTS.md).")
+        .Choices({"photos", "diligent"});
+    t->Add("diligent_sphere_subdivisions", &diligent_sphere_subdivisions,
+           "format = diligent: subdivision levels of the icosphere fitted to the ball (5: 10242 vertices).")
+        .Range(2, 8);
     t->Add("ground_truth", &ground_truth,
            "Optional ground-truth folder (docs/FORMATS.md) copied along for the evaluate stage.")
         .InputDir();

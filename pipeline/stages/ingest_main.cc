@@ -1,5 +1,6 @@
 // Stage executable `ingest` (see modules/ingest/ingest.h).
 #include "core/fs.h"
+#include "datasets/diligent.h"
 #include "ingest/ingest.h"
 
 int main(int argc, char** argv) {
@@ -13,6 +14,14 @@ int main(int argc, char** argv) {
       }
       photos = JoinPath(ctx.Input("synthesize"), "images");
       if (ground_truth.empty()) ground_truth = JoinPath(ctx.Input("synthesize"), "ground_truth");
+    }
+    if (options.format == "diligent") {
+      // A DiLiGenT object folder becomes a scene (photos + ground truth) first.
+      if (photos.empty()) RELIGHT_USER_ERROR() << "ingest.format = diligent needs ingest.images (the object folder)";
+      const std::string scene = JoinPath(ctx.output_dir, "import");
+      ImportDiligent(photos, scene, {options.diligent_sphere_subdivisions, 100.0});
+      photos = JoinPath(scene, "images");
+      if (ground_truth.empty()) ground_truth = JoinPath(scene, "ground_truth");
     }
     if (photos.empty()) {
       RELIGHT_USER_ERROR() << "no photos: set ingest.images to the folder of downloaded photos "

@@ -1,0 +1,124 @@
+#include "datasets/light_evaluation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <queue>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/json.h"
+#include "sphere/octahedral.h"
+
+namespace relight {
+namespace {
+double Lum(const Image& img, int i, int j) {
+  return 0.2126 * img.at(i, j, 0) + 0.7152 * img.at(i, j, 1) + 0.0722 * img.at(i, j, 2);
+}
+double Percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const double pos = p * (v.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(pos)), hi = std::min(v.size() - 1, lo + 1);
+  return v[lo] + (pos - lo) * (v[hi] - v[lo]);
+}
+double Pearson(const std::vector<double>& a, const std::vector<double>& b) {
+  const size_t n = a.size();
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  for (size_t k = 0; k < n; ++k) {
+    sa += a[k];
+    sb += b[k];
+    saa += a[k] * a[k];
+    sbb += b[k] * b[k];
+    sab += a[k] * b[k];
+  }
+  const double cov = sab / n - sa / n * sb / n;
+  const double va = saa / n - sa / n * sa / n, vb = sbb / n - sb / n * sb / n;
+  return va > 0 && vb > 0 ? cov / std::sqrt(va * vb) : 0.0;
+}
+}  // namespace
+
+Eigen::Vector3d BrightestLobeDirection(const Image& oct, double threshold_fraction) {
+  const int n = oct.width;
+  RELIGHT_CHECK(oct.height == n && IsPowerOfTwo(n));
+  int bi = 0, bj = 0;
+  double peak = -1;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      if (Lum(oct, i, j) > peak) {
+        peak = Lum(oct, i, j);
+        bi = i;
+        bj = j;
+      }
+  std::vector<char> in(size_t(n) * n, 0);
+  std::queue<std::pair<int, int>> q;
+  q.push({bi, bj});
+  in[bj * n + bi] = 1;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  while (!q.empty()) {
+    const auto [i, j] = q.front();
+    q.pop();
+    sum += Lum(oct, i, j) * OctTexelSolidAngle(i, j, n) * OctTexelDirection(i, j, n);
+    const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2i t = OctWrapTexel(i + di[k], j + dj[k], n);
+      if (in[t.y() * n + t.x()] || Lum(oct, t.x(), t.y()) < threshold_fraction * peak) continue;
+      in[t.y() * n + t.x()] = 1;
+      q.push({t.x(), t.y()});
+    }
+  }
+  return sum.norm() > 0 ? Eigen::Vector3d(sum.normalized()) : OctTexelDirection(bi, bj, n);
+}
+
+Eigen::Vector3d OctahedralPower(const Image& oct) {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (int j = 0; j < oct.height; ++j)
+    for (int i = 0; i < oct.width; ++i) {
+      const double w = OctTexelSolidAngle(i, j, oct.width);
+      for (int c = 0; c < 3; ++c) p[c] += w * oct.at(i, j, c);
+    }
+  return p;
+}
+
+LightEvaluation EvaluateDirectionalLights(const std::string& inverse_dir, const std::vector<DirectionalLight>& lights) {
+  std::map<std::string, const DirectionalLight*> by_name;
+  for (const auto& l : lights) by_name[l.photo] = &l;
+  const Json j = ReadJsonFile(JoinPath(inverse_dir, "lighting.json"));
+  LightEvaluation e;
+  for (const auto& p : j.at("photos")) {
+    const std::string name = p.at("name");
+    auto it = by_name.find(name);
+    if (it == by_name.end()) continue;
+    const Image oct = ReadImage(JoinPath(inverse_dir, p.at("envmap_oct").get<std::string>()));
+    const Eigen::Vector3d dir = BrightestLobeDirection(oct);
+    e.photos.push_back(name);
+    e.angle_error_deg.push_back(std::acos(std::clamp(dir.dot(it->second->direction_world), -1.0, 1.0)) * 180 / M_PI);
+    e.power_rgb.push_back(OctahedralPower(oct));
+    e.true_rgb.push_back(it->second->intensity_rgb);
+  }
+  if (e.photos.empty()) return e;
+  e.median_angle_deg = Percentile(e.angle_error_deg, 0.5);
+  e.p90_angle_deg = Percentile(e.angle_error_deg, 0.9);
+  double ab = 0, bb = 0, mean_true = 0;
+  for (size_t k = 0; k < e.photos.size(); ++k) {
+    ab += e.power_rgb[k].dot(e.true_rgb[k]);
+    bb += e.power_rgb[k].squaredNorm();
+    mean_true += e.true_rgb[k].mean();
+  }
+  const double scale = bb > 0 ? ab / bb : 1.0;
+  mean_true /= e.photos.size();
+  double sse = 0;
+  for (size_t k = 0; k < e.photos.size(); ++k) sse += (scale * e.power_rgb[k] - e.true_rgb[k]).squaredNorm() / 3;
+  e.relative_intensity_rmse = std::sqrt(sse / e.photos.size()) / std::max(1e-30, mean_true);
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> a, b;
+    for (size_t k = 0; k < e.photos.size(); ++k) {
+      a.push_back(e.power_rgb[k][c]);
+      b.push_back(e.true_rgb[k][c]);
+    }
+    e.pearson[c] = Pearson(a, b);
+  }
+  return e;
+}
+
+}  // namespace relight
