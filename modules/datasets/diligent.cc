@@ -127,7 +127,7 @@ DiligentScene ImportDiligent(const std::string& folder, const std::string& outpu
 
   Json lights = Json::array();
   for (size_t i = 0; i < names.size(); ++i) {
-    DirectionalLight l;
+    KnownDirectionalLight l;
     l.photo = names[i];
     l.direction_world = DiligentToWorld(dirs[i]).normalized();
     l.intensity_rgb = intensities[i];
@@ -146,12 +146,12 @@ DiligentScene ImportDiligent(const std::string& folder, const std::string& outpu
   return scene;
 }
 
-std::vector<DirectionalLight> ReadDirectionalLights(const std::string& path) {
+std::vector<KnownDirectionalLight> ReadDirectionalLights(const std::string& path) {
   const Json j = ReadJsonFile(path);
-  std::vector<DirectionalLight> out;
+  std::vector<KnownDirectionalLight> out;
   try {
     for (const auto& l : j.at("lights")) {
-      DirectionalLight d;
+      KnownDirectionalLight d;
       d.photo = l.at("name");
       const auto dir = l.at("direction_world").get<std::vector<double>>();
       const auto rgb = l.at("intensity_rgb").get<std::vector<double>>();

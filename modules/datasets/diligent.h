@@ -24,7 +24,7 @@ struct DiligentImportOptions {
   double camera_distance = 100.0;  // in sphere radii
 };
 
-struct DirectionalLight {
+struct KnownDirectionalLight {
   std::string photo;                 // photo file name
   Eigen::Vector3d direction_world;   // unit, from the object towards the light
   Eigen::Vector3d intensity_rgb;     // as given by the data set (relative)
@@ -33,7 +33,7 @@ struct DirectionalLight {
 struct DiligentScene {
   Eigen::Vector2d center_px;  // ball centre, COLMAP pixel coordinates
   double radius_px = 0;
-  std::vector<DirectionalLight> lights;
+  std::vector<KnownDirectionalLight> lights;
 };
 
 // True when `folder` holds a DiLiGenT object (filenames.txt, light_directions.txt, mask.png).
@@ -50,6 +50,6 @@ DiligentScene ImportDiligent(const std::string& folder, const std::string& outpu
 Eigen::Vector3d DiligentToWorld(const Eigen::Vector3d& d);
 
 // lights.json of a ground-truth folder (name, direction_world, intensity_rgb).
-std::vector<DirectionalLight> ReadDirectionalLights(const std::string& path);
+std::vector<KnownDirectionalLight> ReadDirectionalLights(const std::string& path);
 
 }  // namespace relight

@@ -80,8 +80,8 @@ Eigen::Vector3d OctahedralPower(const Image& oct) {
   return p;
 }
 
-LightEvaluation EvaluateDirectionalLights(const std::string& inverse_dir, const std::vector<DirectionalLight>& lights) {
-  std::map<std::string, const DirectionalLight*> by_name;
+LightEvaluation EvaluateDirectionalLights(const std::string& inverse_dir, const std::vector<KnownDirectionalLight>& lights) {
+  std::map<std::string, const KnownDirectionalLight*> by_name;
   for (const auto& l : lights) by_name[l.photo] = &l;
   const Json j = ReadJsonFile(JoinPath(inverse_dir, "lighting.json"));
   LightEvaluation e;

@@ -32,6 +32,6 @@ struct LightEvaluation {
 };
 
 // Compares the maps listed in `<inverse>/lighting.json` with `lights` (matched by photo name).
-LightEvaluation EvaluateDirectionalLights(const std::string& inverse_dir, const std::vector<DirectionalLight>& lights);
+LightEvaluation EvaluateDirectionalLights(const std::string& inverse_dir, const std::vector<KnownDirectionalLight>& lights);
 
 }  // namespace relight
