@@ -143,6 +143,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   to.sh_order = o.sh_order;
   to.keep_energy = o.transport_keep_energy;
   to.max_coefficients = o.transport_max_coefficients;
+  to.route = o.transport;
   const TransportStore transport = BuildTransport(problem.mesh, problem.visibility, obs, to);
   summary.transport_seconds = step.Seconds();
   summary.transport_coefficients = transport.num_coefficients();

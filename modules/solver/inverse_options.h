@@ -19,6 +19,7 @@ struct InverseOptions {
   std::string lighting_basis = "haar";  // haar (the method) or sh (low-frequency baseline)
   int env_resolution = 32;              // side of each octahedral environment map (Haar)
   int sh_order = 2;                     // bands of the SH baseline
+  std::string transport = "pixel";      // how transport rows are built: pixel or wavelet
   double transport_keep_energy = 0.999; // Haar truncation of each transport row
   int transport_max_coefficients = 256; // cap per row
 
@@ -58,6 +59,11 @@ struct InverseOptions {
     t->Add("env_resolution", &env_resolution, "Side of each recovered octahedral environment map (power of two).")
         .Range(4, 128);
     t->Add("sh_order", &sh_order, "Highest SH band when lighting_basis = sh ((order+1)² coefficients).").Range(1, 8);
+    t->Add("transport", &transport,
+           "How transport rows are built: pixel (exact: the local hemisphere splatted onto the global map, then "
+           "Haar) or wavelet (the seed's: product projection of visibility and a tabulated BRDF slice, rotated by "
+           "the blended wavelet rotation of the vertex normal). docs/BENCHMARKS.md compares them.")
+        .Choices({"pixel", "wavelet"});
     t->Add("transport_keep_energy", &transport_keep_energy,
            "Each transport row keeps the fewest Haar coefficients holding this share of its energy.")
         .Range(0.5, 1.0);
@@ -122,6 +128,9 @@ struct InverseOptions {
       RELIGHT_USER_ERROR() << "inverse.env_resolution = " << env_resolution << " must be a power of two";
     }
     if (basis.empty()) RELIGHT_USER_ERROR() << "inverse.basis must list at least one BRDF";
+    if (transport == "wavelet" && lighting_basis != "haar") {
+      RELIGHT_USER_ERROR() << "inverse.transport = wavelet needs inverse.lighting_basis = haar";
+    }
     if (fixed_lighting && fixed_reflectance) {
       RELIGHT_USER_ERROR() << "inverse.fixed_lighting and inverse.fixed_reflectance leave nothing to solve";
     }

@@ -12,6 +12,7 @@
 
 #include "core/log.h"
 #include "core/timer.h"
+#include "solver/lobe_spec.h"
 #include "solver/synthetic_problem.h"
 
 namespace relight {
@@ -68,6 +69,28 @@ void BM_SolveMinerva(benchmark::State& state) {
   state.counters["holdout_rel"] = best.holdout_rmse / mean_y;
   state.counters["env_rel_err"] = LightingRelativeError(p, r.lighting);
 }
+// Transport rows alone: the exact pixel route against the seed's wavelet route
+// (product projection + blended wavelet rotation + tabulated slices), same problem, same run.
+void BM_TransportRoute(benchmark::State& state) {
+  InitLogging("solver_benchmark", "", LogLevel::kWarning);
+  setenv("RELIGHT_PROGRESS", "off", 1);
+  const SyntheticProblem& p = Problem(static_cast<int>(state.range(0)));
+  TransportOptions to;
+  to.basis = ParseLobeSpecs({"lambertian", "ggx:0.08", "ggx:0.2", "ggx:0.4", "phong:50", "phong:200", "phong:500"});
+  to.env_resolution = 32;
+  to.route = state.range(1) == 0 ? "pixel" : "wavelet";
+  size_t coefficients = 0;
+  for (auto _ : state) {
+    const TransportStore t = BuildTransport(p.problem.mesh, p.problem.visibility, p.problem.observations, to);
+    coefficients = t.num_coefficients();
+  }
+  const double rows = double(p.problem.mesh.num_vertices()) + 6.0 * p.problem.observations.records.size();
+  state.counters["rows"] = rows;
+  state.counters["coeffs/row"] = coefficients / rows;
+  state.SetLabel(to.route);
+}
+BENCHMARK(BM_TransportRoute)->Args({20000, 0})->Args({20000, 1})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
 BENCHMARK(BM_SolveMinerva)
     ->Args({20000, 6})
     ->Args({100000, 6})

@@ -10,7 +10,10 @@
 #include "sphere/frame.h"
 #include "sphere/octahedral.h"
 #include "sphere/sh.h"
+#include "wavelet/brdf_slice.h"
 #include "wavelet/haar.h"
+#include "wavelet/rotation.h"
+#include "wavelet/triple_product.h"
 
 namespace relight {
 
@@ -174,6 +177,28 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
   }
   std::unique_ptr<ShHemiOctProjector> sh;
   if (!haar) sh = std::make_unique<ShHemiOctProjector>(n_local, o.sh_order);
+  // Wavelet route: rotation (resampling) grid and BRDF slices tabulated over view directions.
+  const bool wavelet = haar && o.route == "wavelet";
+  std::unique_ptr<ResamplingGrid> rotation;
+  std::vector<std::vector<double>> slices;  // [lobe * view_grid² + view] local Haar coefficients
+  if (wavelet) {
+    RotationOptions ro;
+    ro.global_resolution = n_global;
+    ro.local_resolution = n_local;
+    ro.normal_grid = o.normal_grid;
+    rotation = std::make_unique<ResamplingGrid>(ResamplingGrid::Build(ro));
+    BrdfSliceOptions so;
+    so.resolution = n_local;
+    const int vg = o.view_grid;
+    slices.resize(size_t(num_lobes) * vg * vg);
+    tbb::parallel_for(size_t(0), slices.size(), [&](size_t k) {
+      const int b = static_cast<int>(k / (vg * vg)), view = static_cast<int>(k % (vg * vg));
+      // Lambertian slices do not depend on the view: only view 0 is used.
+      if (o.basis[b].model == BrdfModel::kLambertian && view != 0) return;
+      slices[k].resize(size_t(n_local) * n_local);
+      BrdfSliceHaar(o.basis[b], HemiOctTexelDirection(view % vg, view / vg, vg), so, slices[k].data());
+    });
+  }
 
   // Rows are built per block of vertices and merged in block order.
   constexpr size_t kBlock = 256;
@@ -206,6 +231,42 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
       const Eigen::Vector3f nrm = mesh.normals[v];
       const LocalFrame<float> frame = FrameFromNormal<float>(nrm);
       const LocalFrame<double> frame_d = FrameFromNormal<double>(nrm.cast<double>());
+      if (wavelet) {
+        // Local Haar visibility, product with the slice, transposed rotation to the global basis.
+        const size_t n2 = size_t(n_local) * n_local;
+        std::vector<double> vis_haar(n2, 0.0), product(n2), global(store.dim_);
+        visibility.per_vertex[v].ToDense(vis_haar.data());
+        const Eigen::Vector3d normal = nrm.cast<double>();
+        auto wavelet_row = [&](size_t row, const std::vector<double>& slice) {
+          ProductProjection(vis_haar.data(), slice.data(), n_local, product.data());
+          std::fill(global.begin(), global.end(), 0.0);
+          rotation->AccumulateTransposed(normal, product.data(), 1.0, global.data());
+          for (int k = 0; k < store.dim_; ++k) coeffs[k] = static_cast<float>(global[k]);
+          PendingRow pr;
+          pr.row = row;
+          truncator.Run(coeffs.data(), store.dim_, o.keep_energy, o.max_coefficients, &pr.index, &pr.value);
+          out.push_back(std::move(pr));
+        };
+        const int vg = o.view_grid;
+        for (int b = 0; b < num_lobes; ++b) {
+          if (store.view_dependent_[b]) continue;
+          wavelet_row(size_t(v) * store.num_independent_ + store.slot_[b], slices[size_t(b) * vg * vg]);
+        }
+        for (uint32_t q = first[v]; q < first[v + 1]; ++q) {
+          const uint32_t obs = by_vertex[q];
+          const Observation& ob = observations.records[obs];
+          const Eigen::Vector3d wo(ob.view_local[0], ob.view_local[1], std::max(0.0f, ob.view_local[2]));
+          const Eigen::Vector2i cell = HemiOctTexelOf(wo, vg);
+          const int view = cell.y() * vg + cell.x();
+          for (int b = 0; b < num_lobes; ++b) {
+            if (!store.view_dependent_[b]) continue;
+            wavelet_row(store.vertex_rows_ + size_t(obs) * store.num_dependent_ + store.slot_[b],
+                        slices[size_t(b) * vg * vg + view]);
+          }
+        }
+        progress.Advance();
+        continue;
+      }
       // Visible texels of this vertex.
       std::vector<int> visible;
       t.dir_local.assign(local_dirs.size(), Eigen::Vector3f::Zero());

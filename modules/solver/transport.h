@@ -14,6 +14,15 @@
 // Lambertian lobes do not depend on w_o and are stored once per vertex.
 // For the SH baseline the same texel integrals are projected onto world-frame
 // spherical harmonics (dense rows).
+//
+// "wavelet" route (the seed's, §4.2): the visibility and a BRDF slice, both in
+// the local Haar basis, multiply by product projection (wavelet/triple_product.h),
+// and the product is rotated into the global basis with the transposed wavelet
+// rotation of the vertex normal, blended from a grid of normals
+// (wavelet/rotation.h). Slices are tabulated on a grid of view directions
+// (nearest entry). Both routes produce rows in the same basis; the pixel route
+// is exact per vertex and view, the wavelet route carries the normal-grid and
+// view-grid interpolation of the seed (docs/BENCHMARKS.md compares them).
 #pragma once
 
 #include <cstdint>
@@ -34,6 +43,9 @@ struct TransportOptions {
   int sh_order = 2;
   double keep_energy = 0.999;           // haar row truncation
   int max_coefficients = 256;
+  std::string route = "pixel";          // pixel or wavelet (haar only)
+  int normal_grid = 32;                 // wavelet route: grid of rotation matrices (G×G octahedral normals)
+  int view_grid = 32;                   // wavelet route: tabulated BRDF slices (G×G hemi-octahedral views)
 };
 
 // Compact storage of all rows: one pool of (index, value) pairs.
