@@ -99,6 +99,184 @@ void Extrapolate(const LightingState& prev_l, const ReflectanceState& prev_r, do
 
 }  // namespace
 
+namespace {
+
+// What every candidate model of one solve shares.
+struct SolveContext {
+  const InverseProblem& problem;
+  const InverseOptions& o;
+  const KnownQuantities* known;
+  const TransportStore& transport;
+  std::vector<uint32_t> train, holdout;
+  std::vector<std::vector<uint32_t>> subset;  // per photo, lighting-step observations
+  std::vector<std::vector<uint32_t>> neighbours;
+  std::vector<char> observed;
+};
+
+// One candidate model.
+struct ModelSpec {
+  std::vector<char> lobe_enabled;  // per basis lobe
+  int materials = 1;
+  int solve_resolution = 0;        // haar: lighting solved at this resolution (0: full)
+  int max_iterations = 6;
+  int coarse_iterations = 3;
+};
+
+struct AlternationResult {
+  LightingState lighting;
+  ReflectanceState reflectance;
+  std::vector<IterationRecord> iterations;
+  int best_iteration = 0;
+  double best_score = 1e300;  // held-out RMSE (training RMSE without a hold-out)
+  std::string stop_reason;
+};
+
+std::string DescribeSpec(const ModelSpec& spec, const std::vector<BrdfLobe>& basis, int env_resolution) {
+  std::string lobes;
+  for (size_t b = 0; b < basis.size(); ++b) {
+    if (!spec.lobe_enabled[b]) continue;
+    lobes += (lobes.empty() ? "" : "+") + LobeSpec(basis[b]);
+  }
+  const int res = spec.solve_resolution > 0 ? spec.solve_resolution : env_resolution;
+  return std::to_string(spec.materials) + " materials, " + lobes + ", env " + std::to_string(res) + "²";
+}
+
+AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec) {
+  const InverseOptions& o = ctx.o;
+  const ObservationSet& obs = ctx.problem.observations;
+  const size_t nv = ctx.problem.mesh.num_vertices();
+  const int num_photos = static_cast<int>(obs.num_photos);
+  const KnownQuantities* known = ctx.known;
+  const std::vector<BrdfLobe> basis = ParseLobeSpecs(o.basis);
+  AlternationResult result;
+  LightingState& lighting = result.lighting;
+  lighting.basis = o.lighting_basis;
+  lighting.env_resolution = o.env_resolution;
+  lighting.sh_order = o.sh_order;
+  lighting.Resize(num_photos);
+  ReflectanceState& reflectance = result.reflectance;
+  if (known != nullptr && known->has_reflectance) {
+    reflectance = known->reflectance;  // fixed, or a warm start
+  } else {
+    reflectance = InitializeReflectance(obs, ctx.train, nv, basis, spec.materials, o.seed);
+  }
+  if (!(o.fixed_reflectance && known != nullptr && known->has_reflectance)) reflectance.lobe_enabled = spec.lobe_enabled;
+  const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
+  if (!solve_lighting) {
+    RELIGHT_CHECK(o.lighting_basis == "haar") << "fixed lighting needs the haar basis";
+    for (int i = 0; i < num_photos; ++i)
+      for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < lighting.dim; ++k) lighting.values[i][c][k] = known->lighting_oct_rgb[i][k * 3 + c];
+    lighting.UpdateCoefficients();
+  }
+  const bool solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
+  const TransportStore& transport = ctx.transport;
+  const std::vector<uint32_t>& train = ctx.train;
+
+  LightingState best_lighting;
+  ReflectanceState best_reflectance;
+  double previous_objective = -1;
+  Timer total;
+  Timer step;
+  result.stop_reason = "max_iterations reached";
+  // Alternating least squares converges slowly along the bilinear valley; an
+  // extrapolated step along the last update (Bro 1998, "line search" ALS) is
+  // tried after every iteration and kept when it lowers the objective.
+  for (int iter = 0; iter < spec.max_iterations; ++iter) {
+    IterationRecord rec;
+    rec.iteration = iter + 1;
+    const LightingState prev_lighting = lighting;
+    const ReflectanceState prev_reflectance = reflectance;
+    if (solve_lighting) {
+      int resolution = spec.solve_resolution;
+      const bool coarse = solve_reflectance && o.lighting_basis == "haar" && iter < spec.coarse_iterations &&
+                          o.env_resolution >= 16;
+      if (coarse) resolution = std::min(resolution > 0 ? resolution : o.env_resolution, o.env_resolution / 2);
+      const LightingStepResult lr =
+          SolveLighting(transport, obs, ctx.subset, reflectance, o, &lighting, resolution);
+      rec.lighting_seconds = lr.seconds;
+      rec.photo_rmse = lr.photo_rmse;
+    }
+    step.Restart();
+    std::vector<float> responses = ComputeLobeResponses(transport, obs, train, lighting);
+    if (solve_reflectance) {
+      for (int inner = 0; inner < o.material_iterations; ++inner) {
+        SolveMaterials(obs, train, responses, &reflectance);
+        SolveWeights(obs, train, responses, o.sparsity, &reflectance, &ctx.neighbours, o.weight_smoothness);
+      }
+    }
+    rec.reflectance_seconds = step.Seconds();
+    double sse, weight;
+    ResidualStats(obs, train, responses, reflectance, &sse, &weight);
+    if (o.accelerate && iter > 0 && solve_lighting && solve_reflectance) {
+      // Try a few step lengths; the evaluation is cheap next to a lighting step.
+      double best_step = 0;
+      for (double trial : {1.5, 3.0, 6.0, 12.0}) {
+        LightingState cand_l = lighting;
+        ReflectanceState cand_r = reflectance;
+        Extrapolate(prev_lighting, prev_reflectance, trial, &cand_l, &cand_r);
+        const std::vector<float> cand_resp = ComputeLobeResponses(transport, obs, train, cand_l);
+        double cand_sse, cand_w;
+        ResidualStats(obs, train, cand_resp, cand_r, &cand_sse, &cand_w);
+        if (cand_sse < sse) {
+          sse = cand_sse;
+          best_step = trial;
+        } else {
+          break;  // longer steps only get worse along a convex valley
+        }
+      }
+      if (best_step > 0) {
+        Extrapolate(prev_lighting, prev_reflectance, best_step, &lighting, &reflectance);
+        responses = ComputeLobeResponses(transport, obs, train, lighting);
+        rec.extrapolation = best_step;
+      }
+    }
+    // Gauge: fix the scale ambiguity (the product ρ·L is unchanged).
+    if (solve_lighting && solve_reflectance) {
+      const Eigen::Vector3d g = GaugeScale(o.gauge, lighting, reflectance, ctx.observed);
+      ApplyGauge(g, &lighting, &reflectance);
+      responses = ComputeLobeResponses(transport, obs, train, lighting);
+      ResidualStats(obs, train, responses, reflectance, &sse, &weight);
+    }
+    rec.objective = sse;
+    rec.train_rmse = std::sqrt(sse / std::max(1e-30, weight));
+    if (!ctx.holdout.empty()) {
+      const std::vector<float> hr = ComputeLobeResponses(transport, obs, ctx.holdout, lighting);
+      double hs, hw;
+      ResidualStats(obs, ctx.holdout, hr, reflectance, &hs, &hw);
+      rec.holdout_rmse = std::sqrt(hs / std::max(1e-30, hw));
+    }
+    RLOG_DEBUG("iteration {}: train RMSE {:.5g}, held-out RMSE {:.5g} (lighting {:.1f} s, reflectance {:.1f} s)",
+               rec.iteration, rec.train_rmse, rec.holdout_rmse, rec.lighting_seconds, rec.reflectance_seconds);
+    result.iterations.push_back(rec);
+    const double score = ctx.holdout.empty() ? rec.train_rmse : rec.holdout_rmse;
+    if (score < result.best_score) {
+      result.best_score = score;
+      best_lighting = lighting;
+      best_reflectance = reflectance;
+      result.best_iteration = rec.iteration;
+    }
+    if (previous_objective > 0 && std::abs(previous_objective - sse) <= o.tolerance * previous_objective) {
+      result.stop_reason = "objective changed by less than inverse.tolerance";
+      break;
+    }
+    if (!solve_reflectance) {
+      result.stop_reason = "the reflectance is fixed: a single lighting solve suffices";
+      break;
+    }
+    if (o.time_budget_s > 0 && total.Seconds() > o.time_budget_s) {
+      result.stop_reason = "inverse.time_budget_s reached";
+      break;
+    }
+    previous_objective = sse;
+  }
+  lighting = std::move(best_lighting);
+  reflectance = std::move(best_reflectance);
+  return result;
+}
+
+}  // namespace
+
 InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& o, const KnownQuantities* known) {
   Timer total;
   InverseResult result;
@@ -110,29 +288,6 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
     RELIGHT_USER_ERROR() << "no observations: no vertex of the mesh is seen in any photo; check the observe stage";
   }
   const std::vector<BrdfLobe> basis = ParseLobeSpecs(o.basis);
-
-  // Held-out and training observations; per-photo lighting subsets.
-  std::mt19937_64 rng(static_cast<uint64_t>(o.seed));
-  std::uniform_real_distribution<double> uniform(0, 1);
-  std::vector<uint32_t> train, holdout;
-  for (size_t k = 0; k < obs.records.size(); ++k) {
-    (uniform(rng) < o.holdout_fraction ? holdout : train).push_back(static_cast<uint32_t>(k));
-  }
-  summary.train_observations = train.size();
-  summary.holdout_observations = holdout.size();
-  std::vector<std::vector<uint32_t>> subset(num_photos);
-  for (uint32_t k : train) subset[obs.records[k].photo].push_back(k);
-  for (auto& s : subset) {
-    if (static_cast<int>(s.size()) > o.lighting_max_observations) {
-      std::shuffle(s.begin(), s.end(), rng);
-      s.resize(o.lighting_max_observations);
-      std::sort(s.begin(), s.end());
-    }
-  }
-  const std::vector<std::vector<uint32_t>> neighbours =
-      o.weight_smoothness > 0 ? VertexNeighbours(problem.mesh) : std::vector<std::vector<uint32_t>>();
-  std::vector<char> observed(nv, 0);
-  for (uint32_t k : train) observed[obs.records[k].vertex] = 1;
 
   // Transport rows.
   Timer step;
@@ -153,126 +308,126 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
             obs.records.size(), basis.size(), summary.transport_mean_coefficients_per_row,
             transport.bytes() / 1048576.0, summary.transport_seconds);
 
-  // Initial state.
-  LightingState& lighting = result.lighting;
-  lighting.basis = o.lighting_basis;
-  lighting.env_resolution = o.env_resolution;
-  lighting.sh_order = o.sh_order;
-  lighting.Resize(num_photos);
-  ReflectanceState& reflectance = result.reflectance;
-  if (known != nullptr && known->has_reflectance) {
-    reflectance = known->reflectance;  // fixed, or a warm start
-  } else {
-    reflectance = InitializeReflectance(obs, train, nv, basis, o.materials, o.seed);
+  // Held-out and training observations; per-photo lighting subsets.
+  SolveContext ctx{problem, o, known, transport, {}, {}, {}, {}, {}};
+  std::mt19937_64 rng(static_cast<uint64_t>(o.seed));
+  std::uniform_real_distribution<double> uniform(0, 1);
+  for (size_t k = 0; k < obs.records.size(); ++k) {
+    (uniform(rng) < o.holdout_fraction ? ctx.holdout : ctx.train).push_back(static_cast<uint32_t>(k));
   }
-  const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
-  if (!solve_lighting) {
-    RELIGHT_CHECK(o.lighting_basis == "haar") << "fixed lighting needs the haar basis";
-    for (int i = 0; i < num_photos; ++i)
-      for (int c = 0; c < 3; ++c)
-        for (int k = 0; k < lighting.dim; ++k) lighting.values[i][c][k] = known->lighting_oct_rgb[i][k * 3 + c];
-    lighting.UpdateCoefficients();
+  summary.train_observations = ctx.train.size();
+  summary.holdout_observations = ctx.holdout.size();
+  ctx.subset.resize(num_photos);
+  for (uint32_t k : ctx.train) ctx.subset[obs.records[k].photo].push_back(k);
+  for (auto& s : ctx.subset) {
+    if (static_cast<int>(s.size()) > o.lighting_max_observations) {
+      std::shuffle(s.begin(), s.end(), rng);
+      s.resize(o.lighting_max_observations);
+      std::sort(s.begin(), s.end());
+    }
   }
-  const bool solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
+  if (o.weight_smoothness > 0) ctx.neighbours = VertexNeighbours(problem.mesh);
+  ctx.observed.assign(nv, 0);
+  for (uint32_t k : ctx.train) ctx.observed[obs.records[k].vertex] = 1;
 
-  InverseResult best;
-  double best_score = 1e300;
-  double previous_objective = -1;
-  summary.stop_reason = "max_iterations reached";
-  // Alternating least squares converges slowly along the bilinear valley; an
-  // extrapolated step along the last update (Bro 1998, "line search" ALS) is
-  // tried after every iteration and kept when it lowers the objective.
-  for (int iter = 0; iter < o.max_iterations; ++iter) {
-    IterationRecord rec;
-    rec.iteration = iter + 1;
-    const LightingState prev_lighting = lighting;
-    const ReflectanceState prev_reflectance = reflectance;
-    if (solve_lighting) {
-      const bool coarse = solve_reflectance && o.lighting_basis == "haar" && iter < o.coarse_iterations &&
-                          o.env_resolution >= 16;
-      const LightingStepResult lr =
-          SolveLighting(transport, obs, subset, reflectance, o, &lighting, coarse ? o.env_resolution / 2 : 0);
-      rec.lighting_seconds = lr.seconds;
-      rec.photo_rmse = lr.photo_rmse;
+  ModelSpec spec;
+  spec.lobe_enabled.assign(basis.size(), 1);
+  spec.materials = o.materials;
+  spec.max_iterations = o.max_iterations;
+  spec.coarse_iterations = o.coarse_iterations;
+  const bool can_select = o.select_model && !o.fixed_lighting && !o.fixed_reflectance && !ctx.holdout.empty();
+  if (o.select_model && !can_select) {
+    RLOG_WARN("inverse.select_model needs held-out observations and nothing fixed; solving the configured model");
+  }
+  if (can_select) {
+    // Model selection by held-out error: candidates share the transport rows;
+    // each runs a short alternation; the simplest model within
+    // inverse.selection_tolerance of the best held-out error wins.
+    Timer selection;
+    auto evaluate = [&](const ModelSpec& candidate, const std::string& stage) {
+      ModelSpec s = candidate;
+      s.max_iterations = o.selection_iterations;
+      s.coarse_iterations = std::min(o.coarse_iterations, o.selection_iterations - 1);
+      const AlternationResult r = Alternate(ctx, s);
+      ModelCandidate c;
+      c.stage = stage;
+      c.description = DescribeSpec(candidate, basis, o.env_resolution);
+      c.materials = candidate.materials;
+      for (size_t b = 0; b < basis.size(); ++b)
+        if (candidate.lobe_enabled[b]) c.basis.push_back(LobeSpec(basis[b]));
+      c.env_resolution = candidate.solve_resolution > 0 ? candidate.solve_resolution : o.env_resolution;
+      c.holdout_rmse = r.best_score;
+      c.train_rmse = r.iterations[r.best_iteration - 1].train_rmse;
+      summary.candidates.push_back(c);
+      RLOG_INFO("model selection ({}): {}: held-out RMSE {:.5g}", stage, c.description, c.holdout_rmse);
+      return r.best_score;
+    };
+    auto pick = [&](const std::vector<ModelSpec>& options_in_order, const std::string& stage) {
+      // Candidates ordered from simplest to richest; keep the simplest within tolerance of the best.
+      std::vector<double> score;
+      for (const auto& c : options_in_order) score.push_back(evaluate(c, stage));
+      const double best = *std::min_element(score.begin(), score.end());
+      for (size_t k = 0; k < score.size(); ++k)
+        if (score[k] <= (1.0 + o.selection_tolerance) * best) return k;
+      return score.size() - 1;
+    };
+    // 1. Number of materials.
+    std::vector<ModelSpec> by_materials;
+    for (int m : {1, 2, 3, 4, 6, 8}) {
+      if (m > o.materials) break;
+      ModelSpec c = spec;
+      c.materials = m;
+      by_materials.push_back(c);
     }
-    step.Restart();
-    std::vector<float> responses = ComputeLobeResponses(transport, obs, train, lighting);
-    if (solve_reflectance) {
-      for (int inner = 0; inner < o.material_iterations; ++inner) {
-        SolveMaterials(obs, train, responses, &reflectance);
-        SolveWeights(obs, train, responses, o.sparsity, &reflectance, &neighbours, o.weight_smoothness);
+    if (by_materials.empty() || by_materials.back().materials != o.materials) {
+      by_materials.push_back(spec);
+    }
+    spec = by_materials[pick(by_materials, "materials")];
+    // 2. Basis lobes: drop each specular lobe that the held-out error does not miss.
+    double current = 1e300;
+    for (const auto& c : summary.candidates)
+      if (c.stage == "materials" && c.materials == spec.materials) current = c.holdout_rmse;
+    for (size_t b = 0; b < basis.size(); ++b) {
+      if (basis[b].model == BrdfModel::kLambertian || !spec.lobe_enabled[b]) continue;
+      ModelSpec c = spec;
+      c.lobe_enabled[b] = 0;
+      const double score = evaluate(c, "basis");
+      if (score <= (1.0 + o.selection_tolerance) * current) {
+        spec = c;
+        current = std::min(current, score);
       }
     }
-    rec.reflectance_seconds = step.Seconds();
-    double sse, weight;
-    ResidualStats(obs, train, responses, reflectance, &sse, &weight);
-    if (o.accelerate && iter > 0 && solve_lighting && solve_reflectance) {
-      // Try a few step lengths; the evaluation is cheap next to a lighting step.
-      double best_step = 0;
-      for (double step : {1.5, 3.0, 6.0, 12.0}) {
-        LightingState cand_l = lighting;
-        ReflectanceState cand_r = reflectance;
-        Extrapolate(prev_lighting, prev_reflectance, step, &cand_l, &cand_r);
-        const std::vector<float> cand_resp = ComputeLobeResponses(transport, obs, train, cand_l);
-        double cand_sse, cand_w;
-        ResidualStats(obs, train, cand_resp, cand_r, &cand_sse, &cand_w);
-        if (cand_sse < sse) {
-          sse = cand_sse;
-          best_step = step;
-        } else {
-          break;  // longer steps only get worse along a convex valley
-        }
+    // 3. Environment-map resolution (Haar): coarser maps when the photos do not support detail.
+    if (o.lighting_basis == "haar") {
+      std::vector<ModelSpec> by_resolution;
+      for (int res = std::max(8, o.env_resolution / 4); res < o.env_resolution; res *= 2) {
+        ModelSpec c = spec;
+        c.solve_resolution = res;
+        by_resolution.push_back(c);
       }
-      if (best_step > 0) {
-        Extrapolate(prev_lighting, prev_reflectance, best_step, &lighting, &reflectance);
-        responses = ComputeLobeResponses(transport, obs, train, lighting);
-        rec.extrapolation = best_step;
-      }
+      by_resolution.push_back(spec);
+      spec = by_resolution[pick(by_resolution, "env_resolution")];
     }
-    // Gauge: fix the scale ambiguity (the product ρ·L is unchanged).
-    if (solve_lighting && solve_reflectance) {
-      const Eigen::Vector3d s = GaugeScale(o.gauge, lighting, reflectance, observed);
-      ApplyGauge(s, &lighting, &reflectance);
-      responses = ComputeLobeResponses(transport, obs, train, lighting);
-      ResidualStats(obs, train, responses, reflectance, &sse, &weight);
+    for (auto& c : summary.candidates) {
+      c.chosen = c.description == DescribeSpec(spec, basis, o.env_resolution) && c.stage != "chosen";
     }
-    rec.objective = sse;
-    rec.train_rmse = std::sqrt(sse / std::max(1e-30, weight));
-    if (!holdout.empty()) {
-      const std::vector<float> hr = ComputeLobeResponses(transport, obs, holdout, lighting);
-      double hs, hw;
-      ResidualStats(obs, holdout, hr, reflectance, &hs, &hw);
-      rec.holdout_rmse = std::sqrt(hs / std::max(1e-30, hw));
-    }
+    summary.selection_seconds = selection.Seconds();
+    summary.chosen_model = DescribeSpec(spec, basis, o.env_resolution);
+    RLOG_INFO("model selection chose {} ({:.1f} s)", summary.chosen_model, summary.selection_seconds);
+  }
+
+  AlternationResult final_result = Alternate(ctx, spec);
+  for (const auto& rec : final_result.iterations) {
     RLOG_INFO("iteration {}: train RMSE {:.5g}, held-out RMSE {:.5g} (lighting {:.1f} s, reflectance {:.1f} s)",
               rec.iteration, rec.train_rmse, rec.holdout_rmse, rec.lighting_seconds, rec.reflectance_seconds);
-    summary.iterations.push_back(rec);
-    const double score = holdout.empty() ? rec.train_rmse : rec.holdout_rmse;
-    if (score < best_score) {
-      best_score = score;
-      best.lighting = lighting;
-      best.reflectance = reflectance;
-      summary.best_iteration = rec.iteration;
-    }
-    if (previous_objective > 0 && std::abs(previous_objective - sse) <= o.tolerance * previous_objective) {
-      summary.stop_reason = "objective changed by less than inverse.tolerance";
-      break;
-    }
-    if (!solve_lighting || !solve_reflectance) {
-      if (iter >= 1 || !solve_reflectance) {
-        summary.stop_reason = "one factor is fixed: a single solve suffices";
-        if (!solve_reflectance && iter == 0) break;
-      }
-    }
-    if (o.time_budget_s > 0 && total.Seconds() > o.time_budget_s) {
-      summary.stop_reason = "inverse.time_budget_s reached";
-      break;
-    }
-    previous_objective = sse;
   }
-  lighting = best.lighting;
-  reflectance = best.reflectance;
-  FillUnobservedWeights(problem.mesh, observed, &reflectance);
+  result.lighting = std::move(final_result.lighting);
+  result.reflectance = std::move(final_result.reflectance);
+  summary.iterations = std::move(final_result.iterations);
+  summary.best_iteration = final_result.best_iteration;
+  summary.stop_reason = final_result.stop_reason;
+  if (summary.chosen_model.empty()) summary.chosen_model = DescribeSpec(spec, basis, o.env_resolution);
+  FillUnobservedWeights(problem.mesh, ctx.observed, &result.reflectance);
   summary.seconds = total.Seconds();
   return result;
 }
@@ -427,6 +582,21 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   j["iterations"] = iters;
   j["best_iteration"] = s.best_iteration;
   j["stop_reason"] = s.stop_reason;
+  j["model"] = s.chosen_model;
+  if (!s.candidates.empty()) {
+    Json cands = Json::array();
+    for (const auto& c : s.candidates) {
+      cands.push_back({{"stage", c.stage},
+                       {"model", c.description},
+                       {"materials", c.materials},
+                       {"basis", c.basis},
+                       {"env_resolution", c.env_resolution},
+                       {"holdout_rmse", c.holdout_rmse},
+                       {"train_rmse", c.train_rmse},
+                       {"chosen", c.chosen}});
+    }
+    j["model_selection"] = {{"seconds", s.selection_seconds}, {"candidates", cands}};
+  }
   j["gauge"] = o.gauge;
   j["seconds"] = s.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "solve_summary.json"), j);

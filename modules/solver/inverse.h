@@ -49,6 +49,18 @@ struct IterationRecord {
   double extrapolation = 0;        // accepted extrapolation step (0: none)
 };
 
+// A model tried by automatic model selection.
+struct ModelCandidate {
+  std::string stage;                 // materials, basis or env_resolution
+  std::string description;
+  int materials = 0;
+  std::vector<std::string> basis;    // lobe specs
+  int env_resolution = 0;
+  double holdout_rmse = 0;
+  double train_rmse = 0;
+  bool chosen = false;
+};
+
 struct InverseSummary {
   std::vector<IterationRecord> iterations;
   int best_iteration = 0;
@@ -58,7 +70,9 @@ struct InverseSummary {
   size_t train_observations = 0;
   size_t holdout_observations = 0;
   std::string stop_reason;
-  Eigen::Vector3d gauge_scale = Eigen::Vector3d::Ones();  // applied to the lighting of the last gauge fix
+  std::vector<ModelCandidate> candidates;  // model selection: every model tried
+  std::string chosen_model;                // the model of the final solve
+  double selection_seconds = 0;
   double seconds = 0;
 };
 

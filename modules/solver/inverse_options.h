@@ -48,6 +48,11 @@ struct InverseOptions {
   std::string gauge = "neutral_light";  // neutral_light or neutral_albedo
   int seed = 1;                         // random subsets and k-means
 
+  // Model selection.
+  bool select_model = false;            // choose materials, lobes and map resolution by held-out error
+  int selection_iterations = 4;         // alternation iterations per candidate model
+  double selection_tolerance = 0.02;    // the simplest model within this of the best held-out error wins
+
   // Known quantities, for experiments and tests on synthetic scenes.
   bool fixed_lighting = false;          // use the ground-truth environment maps; solve reflectance only
   bool fixed_reflectance = false;       // use the ground-truth reflectance; solve lighting only
@@ -118,6 +123,14 @@ struct InverseOptions {
            "grey, 1 per channel) or neutral_albedo (mean diffuse albedo is grey, 0.5 per channel).")
         .Choices({"neutral_light", "neutral_albedo"});
     t->Add("seed", &seed, "Seed of random subsets and k-means.");
+    t->Add("select_model", &select_model,
+           "Choose the number of materials (up to inverse.materials), the basis lobes (a subset of inverse.basis) and "
+           "the map resolution (up to inverse.env_resolution) by held-out error; every candidate is reported in "
+           "solve_summary.json. Costs about selection_iterations iterations per candidate.");
+    t->Add("selection_iterations", &selection_iterations, "Alternation iterations per candidate model.").Range(2, 50);
+    t->Add("selection_tolerance", &selection_tolerance,
+           "Model selection keeps the simplest model whose held-out error is within this fraction of the best.")
+        .Range(0, 1);
     t->Add("fixed_lighting", &fixed_lighting,
            "Use the ground-truth environment maps and solve only the reflectance (synthetic scenes).");
     t->Add("fixed_reflectance", &fixed_reflectance,

@@ -19,6 +19,9 @@ struct ReflectanceState {
   int num_materials = 0;
   std::vector<Eigen::Vector3d> coefficients;  // [m * B + b]: RGB weight of lobe b in material m (>= 0)
   std::vector<float> weights;                 // [v * M + m]: material weights of vertex v (>= 0)
+  std::vector<char> lobe_enabled;             // per lobe; empty: all. Disabled lobes keep coefficient 0.
+
+  bool enabled(int lobe) const { return lobe_enabled.empty() || lobe_enabled[lobe]; }
 
   int num_lobes() const { return static_cast<int>(basis.size()); }
   // ρ_{v,b,c} for all lobes b and channels c into out[b * 3 + c].

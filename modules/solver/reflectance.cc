@@ -246,6 +246,16 @@ void SolveMaterials(const ObservationSet& observations, const std::vector<uint32
     });
     g = Eigen::MatrixXd(g.selfadjointView<Eigen::Lower>());
     g.diagonal().array() += 1e-9 * std::max(1e-30, g.diagonal().maxCoeff());
+    // Disabled lobes (model selection) are pinned at zero.
+    for (int m = 0; m < m_count; ++m)
+      for (int b = 0; b < b_count; ++b) {
+        if (state->enabled(b)) continue;
+        const int k = m * b_count + b;
+        g.row(k).setZero();
+        g.col(k).setZero();
+        g(k, k) = 1.0;
+        h[k] = 0.0;
+      }
     Eigen::VectorXd x(dim);
     for (int m = 0; m < m_count; ++m)
       for (int b = 0; b < b_count; ++b) x[m * b_count + b] = state->coefficients[m * b_count + b][c];

@@ -98,14 +98,16 @@ SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
     const Eigen::Vector3d diffuse = m == 0 ? Eigen::Vector3d(0.7, 0.2, 0.15)
                                            : Eigen::Vector3d(0.2 + 0.5 * u(rng), 0.2 + 0.5 * u(rng), 0.2 + 0.5 * u(rng));
     r.coefficients[m * b_count] = diffuse;
-    if (b_count > 1 && m > 0) r.coefficients[m * b_count + 1 + (m - 1) % (b_count - 1)] = Eigen::Vector3d::Constant(0.5);
+    if (o.glossy && b_count > 1 && m > 0) {
+      r.coefficients[m * b_count + 1 + (m - 1) % (b_count - 1)] = Eigen::Vector3d::Constant(0.5);
+    }
   }
   if (o.materials == 2) r.coefficients[b_count] = Eigen::Vector3d::Constant(0.45);
   r.weights.assign(nv * o.materials, 0.0f);
   for (size_t v = 0; v < nv; ++v) {
     const Eigen::Vector3f p = mesh.vertices[v];
     if (o.materials == 2) {
-      const float w0 = std::clamp(0.5f + 2.0f * p.x(), 0.0f, 1.0f);
+      const float w0 = std::clamp(0.5f + p.x() / static_cast<float>(o.blend_width), 0.0f, 1.0f);
       r.weights[v * 2] = w0;
       r.weights[v * 2 + 1] = 1.0f - w0;
       continue;

@@ -22,6 +22,8 @@ struct SyntheticProblemOptions {
   std::vector<std::string> basis = {"lambertian", "phong:50"};
   int materials = 2;
   double displacement = 0.0;           // relative bump height (self-shadowing)
+  bool glossy = true;                  // materials after the first carry a specular lobe
+  double blend_width = 0.5;            // two materials: width (scene units) of the transition between them
   double min_view_cos = 0.1;           // a vertex is observed when n·view exceeds this
   double generation_keep_energy = 1.0; // Haar truncation of the rows that generate the measurements
   int seed = 1;
