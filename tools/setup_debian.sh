@@ -9,7 +9,7 @@ packages=(
   # libraries (all found by CMake's find_package)
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libssl-dev
   libtbb-dev libopenimageio-dev openimageio-tools libembree-dev libceres-dev libcgal-dev libopencv-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libsqlite3-dev
   # programs the stages drive, and data
   colmap gnuplot-nox blender-data
   # headless browser for the report test

@@ -1,0 +1,242 @@
+// The only translation unit with CGAL includes (see mesh_cleanup.h).
+#include "meshing/mesh_cleanup.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/border.h>
+#include <CGAL/Polygon_mesh_processing/connected_components.h>
+#include <CGAL/Polygon_mesh_processing/manifoldness.h>
+#include <CGAL/Polygon_mesh_processing/measure.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/orientation.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/remesh.h>
+#include <CGAL/Polygon_mesh_processing/repair_degeneracies.h>
+#include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
+#include <CGAL/Surface_mesh_simplification/edge_collapse.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/timer.h"
+
+namespace relight {
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = Kernel::Point_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using Face = SurfaceMesh::Face_index;
+using Halfedge = SurfaceMesh::Halfedge_index;
+namespace PMP = CGAL::Polygon_mesh_processing;
+namespace SMS = CGAL::Surface_mesh_simplification;
+
+SurfaceMesh ToSurfaceMesh(const TriangleMesh& input, MeshCleanupSummary* summary) {
+  std::vector<Point> points;
+  points.reserve(input.vertices.size());
+  for (const auto& v : input.vertices) points.emplace_back(v.x(), v.y(), v.z());
+  std::vector<std::vector<std::size_t>> polygons;
+  polygons.reserve(input.faces.size());
+  for (const auto& f : input.faces) polygons.push_back({size_t(f[0]), size_t(f[1]), size_t(f[2])});
+
+  const size_t points_before = points.size(), polygons_before = polygons.size();
+  PMP::repair_polygon_soup(points, polygons);
+  summary->duplicate_points_merged = points_before > points.size() ? points_before - points.size() : 0;
+  summary->soup_polygons_removed = polygons_before - polygons.size();
+  const size_t points_repaired = points.size();
+  PMP::orient_polygon_soup(points, polygons);  // duplicates points at non-manifold edges/vertices
+  summary->non_manifold_points_duplicated = points.size() - points_repaired;
+  SurfaceMesh mesh;
+  PMP::polygon_soup_to_polygon_mesh(points, polygons, mesh);
+  return mesh;
+}
+
+TriangleMesh FromSurfaceMesh(const SurfaceMesh& mesh) {
+  TriangleMesh out;
+  std::map<SurfaceMesh::Vertex_index, int> index;
+  out.vertices.reserve(mesh.number_of_vertices());
+  for (auto v : mesh.vertices()) {
+    const Point& p = mesh.point(v);
+    index[v] = static_cast<int>(out.vertices.size());
+    out.vertices.emplace_back(float(p.x()), float(p.y()), float(p.z()));
+  }
+  out.faces.reserve(mesh.number_of_faces());
+  for (auto f : mesh.faces()) {
+    Eigen::Vector3i tri;
+    int k = 0;
+    for (auto v : CGAL::vertices_around_face(mesh.halfedge(f), mesh)) {
+      if (k < 3) tri[k] = index[v];
+      ++k;
+    }
+    RELIGHT_CHECK_EQ(k, 3) << "non-triangular face after clean-up";
+    out.faces.push_back(tri);
+  }
+  return out;
+}
+
+// Keeps the largest components by area (up to max_components, each at least
+// min_component_fraction of the largest).
+void KeepLargestComponents(const MeshCleanupOptions& options, SurfaceMesh* mesh, MeshCleanupSummary* summary) {
+  auto fccmap = mesh->add_property_map<Face, std::size_t>("f:relight_cc", 0).first;
+  const std::size_t num = PMP::connected_components(*mesh, fccmap);
+  summary->components_found = static_cast<int>(num);
+  std::vector<double> area(num, 0.0);
+  std::vector<size_t> faces(num, 0);
+  for (Face f : mesh->faces()) {
+    area[fccmap[f]] += PMP::face_area(f, *mesh);
+    ++faces[fccmap[f]];
+  }
+  std::vector<std::size_t> order(num);
+  for (size_t i = 0; i < num; ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return area[a] > area[b]; });
+  std::vector<std::size_t> keep;
+  for (size_t k = 0; k < num && static_cast<int>(k) < options.max_components; ++k) {
+    if (k == 0 || area[order[k]] >= options.min_component_fraction * area[order[0]]) keep.push_back(order[k]);
+  }
+  summary->components_removed = static_cast<int>(num - keep.size());
+  for (size_t k = 0; k < num; ++k) {
+    if (std::find(keep.begin(), keep.end(), k) == keep.end()) summary->faces_removed_with_components += faces[k];
+  }
+  if (keep.size() < num) PMP::keep_connected_components(*mesh, keep, fccmap);
+  mesh->remove_property_map(fccmap);
+  mesh->collect_garbage();
+}
+
+double BboxDiagonal(const SurfaceMesh& mesh) {
+  const CGAL::Bbox_3 box = PMP::bbox(mesh);
+  return std::sqrt(CGAL::square(box.xmax() - box.xmin()) + CGAL::square(box.ymax() - box.ymin()) +
+                   CGAL::square(box.zmax() - box.zmin()));
+}
+
+void FillSmallHoles(const MeshCleanupOptions& options, SurfaceMesh* mesh, MeshCleanupSummary* summary) {
+  std::vector<Halfedge> borders;
+  PMP::extract_boundary_cycles(*mesh, std::back_inserter(borders));
+  const double diagonal = BboxDiagonal(*mesh);
+  for (Halfedge h : borders) {
+    int edges = 0;
+    CGAL::Bbox_3 box;
+    for (Halfedge b : CGAL::halfedges_around_face(h, *mesh)) {
+      ++edges;
+      box += mesh->point(mesh->target(b)).bbox();
+    }
+    const double width = std::sqrt(CGAL::square(box.xmax() - box.xmin()) + CGAL::square(box.ymax() - box.ymin()) +
+                                   CGAL::square(box.zmax() - box.zmin()));
+    if (edges > options.max_hole_edges || width > options.max_hole_fraction * diagonal) {
+      ++summary->holes_left;
+      continue;
+    }
+    std::vector<Face> new_faces;
+    std::vector<SurfaceMesh::Vertex_index> new_vertices;
+    const auto result = PMP::triangulate_refine_and_fair_hole(*mesh, h, std::back_inserter(new_faces),
+                                                              std::back_inserter(new_vertices));
+    if (!std::get<0>(result)) RLOG_DEBUG("hole of {} edges: fairing failed, kept the refined patch", edges);
+    if (new_faces.empty()) {
+      ++summary->holes_left;
+    } else {
+      ++summary->holes_filled;
+      summary->hole_faces_added += new_faces.size();
+    }
+  }
+}
+
+// Edge collapse towards `target_vertices` (only ever reduces).
+void Decimate(SurfaceMesh* mesh, size_t target_vertices) {
+  if (mesh->number_of_vertices() <= target_vertices) return;
+  // Edges scale with vertices (E ≈ 3V on closed meshes); aim the edge count proportionally.
+  const double ratio = double(target_vertices) / mesh->number_of_vertices();
+  const size_t target_edges = std::max<size_t>(6, static_cast<size_t>(ratio * mesh->number_of_edges()));
+  SMS::Count_stop_predicate<SurfaceMesh> stop(target_edges);
+  SMS::edge_collapse(*mesh, stop);
+  mesh->collect_garbage();
+}
+
+void Resample(const MeshCleanupOptions& options, SurfaceMesh* mesh, MeshCleanupSummary* summary) {
+  if (options.target_vertices <= 0) return;
+  const size_t target = static_cast<size_t>(options.target_vertices);
+  auto within = [&] {
+    const double r = double(mesh->number_of_vertices()) / target;
+    return std::abs(r - 1.0) <= options.vertex_tolerance;
+  };
+  if (!options.remesh) {
+    for (int pass = 0; pass < 4 && !within() && mesh->number_of_vertices() > target; ++pass) {
+      Decimate(mesh, target);
+      ++summary->resample_passes;
+    }
+    return;
+  }
+  // Remeshing a huge input directly is slow: collapse to twice the budget first.
+  if (mesh->number_of_vertices() > 4 * target) Decimate(mesh, 2 * target);
+  // Equilateral triangles of side L, F ≈ 2V faces: A = 2V · (√3/4) L².
+  const double area = PMP::area(*mesh);
+  double length = std::sqrt(2.0 * area / (std::sqrt(3.0) * double(target)));
+  for (int pass = 0; pass < 5; ++pass) {
+    PMP::isotropic_remeshing(faces(*mesh), length, *mesh,
+                             CGAL::parameters::number_of_iterations(options.remesh_iterations));
+    mesh->collect_garbage();
+    ++summary->resample_passes;
+    summary->target_edge_length = length;
+    RLOG_DEBUG("remeshing pass {}: edge length {:.5g} -> {} vertices (target {})", pass + 1, length,
+               mesh->number_of_vertices(), target);
+    if (within()) break;
+    length *= std::sqrt(double(mesh->number_of_vertices()) / target);
+  }
+}
+
+}  // namespace
+
+TriangleMesh CleanMesh(const TriangleMesh& input, const MeshCleanupOptions& options, const std::string& where,
+                       MeshCleanupSummary* summary) {
+  *summary = MeshCleanupSummary();
+  summary->input_vertices = input.vertices.size();
+  summary->input_faces = input.faces.size();
+  if (input.faces.empty()) RELIGHT_USER_ERROR() << where << " has no faces; a triangle mesh is needed";
+  Timer step;
+  auto lap = [&](const char* name) {
+    summary->step_seconds.emplace_back(name, step.Seconds());
+    step.Restart();
+  };
+
+  SurfaceMesh mesh = ToSurfaceMesh(input, summary);
+  lap("soup repair");
+  const size_t faces_before = mesh.number_of_faces();
+  PMP::remove_degenerate_faces(mesh);
+  mesh.collect_garbage();
+  summary->degenerate_faces_removed = faces_before - mesh.number_of_faces();
+  summary->non_manifold_points_duplicated += PMP::duplicate_non_manifold_vertices(mesh);
+  lap("degeneracies");
+  if (mesh.number_of_faces() == 0) {
+    RELIGHT_USER_ERROR() << where << ": no valid triangle is left after removing degenerate faces";
+  }
+
+  KeepLargestComponents(options, &mesh, summary);
+  lap("components");
+  if (options.max_hole_edges > 0) FillSmallHoles(options, &mesh, summary);
+  lap("holes");
+  Resample(options, &mesh, summary);
+  lap("resample");
+  // Remeshing can leave degenerate slivers and pinched vertices in rare cases.
+  PMP::remove_degenerate_faces(mesh);
+  PMP::duplicate_non_manifold_vertices(mesh);
+  mesh.collect_garbage();
+
+  summary->closed = CGAL::is_closed(mesh);
+  if (summary->closed) {
+    // Every closed component outward (is_outward_oriented judges one component only).
+    summary->orientation_reversed = !PMP::is_outward_oriented(mesh);
+    PMP::orient(mesh, CGAL::parameters::outward_orientation(true));
+  }
+  lap("orientation");
+
+  TriangleMesh out = FromSurfaceMesh(mesh);
+  out.ComputeVertexNormals();
+  summary->output_vertices = out.vertices.size();
+  summary->output_faces = out.faces.size();
+  return out;
+}
+
+}  // namespace relight

@@ -1,0 +1,396 @@
+// Mesh clean-up tests: damaged spheres and hemispheres whose true surface is
+// known (unit sphere), the Stanford bunny, cropping, and the stage end to end.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <random>
+
+#include "core/error.h"
+#include "core/json.h"
+#include "geometry/mesh_io.h"
+#include "meshing/mesh_cleanup.h"
+#include "meshing/mesh_stage.h"
+#include "testing/testing.h"
+
+namespace relight {
+namespace {
+
+// Icosphere of radius 1 (level 4: 2562 vertices, level 5: 10242).
+TriangleMesh Icosphere(int level) {
+  TriangleMesh m;
+  const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
+  for (auto v :
+       {Eigen::Vector3f(-1, t, 0), Eigen::Vector3f(1, t, 0), Eigen::Vector3f(-1, -t, 0), Eigen::Vector3f(1, -t, 0),
+        Eigen::Vector3f(0, -1, t), Eigen::Vector3f(0, 1, t), Eigen::Vector3f(0, -1, -t), Eigen::Vector3f(0, 1, -t),
+        Eigen::Vector3f(t, 0, -1), Eigen::Vector3f(t, 0, 1), Eigen::Vector3f(-t, 0, -1), Eigen::Vector3f(-t, 0, 1)}) {
+    m.vertices.push_back(v.normalized());
+  }
+  m.faces = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+             {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+             {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+  for (int l = 0; l < level; ++l) {
+    std::map<std::pair<int, int>, int> mid;
+    auto midpoint = [&](int a, int b) {
+      auto key = std::minmax(a, b);
+      auto it = mid.find(key);
+      if (it != mid.end()) return it->second;
+      m.vertices.push_back((m.vertices[a] + m.vertices[b]).normalized());
+      return mid[key] = static_cast<int>(m.vertices.size()) - 1;
+    };
+    std::vector<Eigen::Vector3i> faces;
+    for (const auto& f : m.faces) {
+      const int a = midpoint(f[0], f[1]), b = midpoint(f[1], f[2]), c = midpoint(f[2], f[0]);
+      faces.push_back({f[0], a, c});
+      faces.push_back({f[1], b, a});
+      faces.push_back({f[2], c, b});
+      faces.push_back({a, b, c});
+    }
+    m.faces = faces;
+  }
+  return m;
+}
+
+// Adds what real reconstructions contain: radial noise, holes, floating
+// fragments, a non-manifold fin, duplicate vertices, degenerate faces, and
+// some faces with flipped orientation.
+void Damage(TriangleMesh* m, bool holes, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> noise(-0.004f, 0.004f);
+  for (auto& v : m->vertices) v *= 1.0f + noise(rng);
+  if (holes) {
+    // Three holes: faces whose centroid is near a point of the sphere (~10-40 boundary edges each).
+    const Eigen::Vector3f centres[] = {Eigen::Vector3f(1, 0.2f, 0.1f).normalized(),
+                                       Eigen::Vector3f(-0.3f, 1, 0.2f).normalized(),
+                                       Eigen::Vector3f(0.1f, -0.4f, -1).normalized()};
+    std::vector<Eigen::Vector3i> kept;
+    for (const auto& f : m->faces) {
+      const Eigen::Vector3f c = (m->vertices[f[0]] + m->vertices[f[1]] + m->vertices[f[2]]) / 3.0f;
+      bool in_hole = false;
+      for (const auto& h : centres) in_hole |= (c.normalized() - h).norm() < 0.09f;
+      if (!in_hole) kept.push_back(f);
+    }
+    m->faces = kept;
+  }
+  // Floating fragments: small closed tetrahedra and a loose triangle strip.
+  for (int k = 0; k < 6; ++k) {
+    const Eigen::Vector3f c(1.5f + 0.2f * k, 0.3f * k - 0.5f, 0.1f * k);
+    const int base = static_cast<int>(m->vertices.size());
+    const float s = 0.03f;
+    m->vertices.push_back(c + Eigen::Vector3f(s, s, s));
+    m->vertices.push_back(c + Eigen::Vector3f(s, -s, -s));
+    m->vertices.push_back(c + Eigen::Vector3f(-s, s, -s));
+    m->vertices.push_back(c + Eigen::Vector3f(-s, -s, s));
+    m->faces.push_back({base, base + 1, base + 2});
+    m->faces.push_back({base, base + 3, base + 1});
+    m->faces.push_back({base, base + 2, base + 3});
+    m->faces.push_back({base + 1, base + 3, base + 2});
+  }
+  // A non-manifold fin: a third face on an existing edge.
+  {
+    const auto f = m->faces[100];
+    m->vertices.push_back(m->vertices[f[0]] * 1.2f);
+    m->faces.push_back({f[0], f[1], static_cast<int>(m->vertices.size()) - 1});
+  }
+  // Duplicate vertices: unweld a patch of faces (same positions, new indices).
+  for (size_t i = 200; i < 260 && i < m->faces.size(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      m->vertices.push_back(m->vertices[m->faces[i][k]]);
+      m->faces[i][k] = static_cast<int>(m->vertices.size()) - 1;
+    }
+  }
+  // Degenerate faces: repeated index, and collinear points.
+  m->faces.push_back({5, 5, 6});
+  {
+    const int a = m->faces[300][0], b = m->faces[300][1];
+    m->vertices.push_back(0.5f * (m->vertices[a] + m->vertices[b]));
+    m->faces.push_back({a, b, static_cast<int>(m->vertices.size()) - 1});
+  }
+  // Flip a block of faces (inconsistent orientation).
+  for (size_t i = 400; i < 450 && i < m->faces.size(); ++i) std::swap(m->faces[i][1], m->faces[i][2]);
+}
+
+double FractionOutward(const TriangleMesh& m, const Eigen::Vector3f& centre) {
+  int outward = 0;
+  for (size_t v = 0; v < m.vertices.size(); ++v) outward += m.normals[v].dot(m.vertices[v] - centre) > 0;
+  return double(outward) / m.vertices.size();
+}
+
+double MaxRadialError(const TriangleMesh& m) {
+  double e = 0;
+  for (const auto& v : m.vertices) e = std::max(e, std::abs(double(v.norm()) - 1.0));
+  return e;
+}
+
+TEST(MeshCleanup, DamagedSphereBecomesOneClosedManifoldWithTheRequestedVertexCount) {
+  TriangleMesh input = Icosphere(5);
+  Damage(&input, /*holes=*/true, 1);
+  ASSERT_FALSE(FindManifoldViolation(input).empty());
+  ASSERT_GT(CountComponents(input), 6);
+  for (int target : {3000, 8000}) {
+    MeshCleanupOptions options;
+    options.target_vertices = target;
+    MeshCleanupSummary summary;
+    const TriangleMesh out = CleanMesh(input, options, "damaged sphere", &summary);
+    SCOPED_TRACE("target " + std::to_string(target));
+    EXPECT_EQ(FindManifoldViolation(out), "");
+    EXPECT_EQ(CountComponents(out), 1);
+    EXPECT_EQ(CountBoundaryEdges(out), 0u) << "the three holes are small and must be filled";
+    EXPECT_TRUE(summary.closed);
+    EXPECT_EQ(summary.holes_filled, 3);
+    EXPECT_GE(summary.components_removed, 6);  // the tetrahedra (and the split-off fin)
+    EXPECT_GT(summary.duplicate_points_merged, 0u);
+    EXPECT_NEAR(double(out.vertices.size()), target, 0.10 * target);
+    EXPECT_GT(FractionOutward(out, Eigen::Vector3f::Zero()), 0.999);
+    // The surface stays on the unit sphere: noise 0.4%, hole fill and remeshing within 3%.
+    EXPECT_LT(MaxRadialError(out), 0.03);
+  }
+}
+
+TEST(MeshCleanup, InwardSphereIsTurnedOutward) {
+  TriangleMesh input = Icosphere(4);
+  for (auto& f : input.faces) std::swap(f[1], f[2]);
+  MeshCleanupOptions options;
+  options.target_vertices = 2000;
+  MeshCleanupSummary summary;
+  const TriangleMesh out = CleanMesh(input, options, "inward sphere", &summary);
+  EXPECT_TRUE(summary.orientation_reversed);
+  EXPECT_GT(FractionOutward(out, Eigen::Vector3f::Zero()), 0.999);
+  EXPECT_NEAR(double(out.vertices.size()), 2000, 200);
+}
+
+TEST(MeshCleanup, DecimationReachesTheVertexBudget) {
+  TriangleMesh input = Icosphere(5);
+  Damage(&input, /*holes=*/false, 2);
+  MeshCleanupOptions options;
+  options.target_vertices = 2500;
+  options.remesh = false;
+  MeshCleanupSummary summary;
+  const TriangleMesh out = CleanMesh(input, options, "sphere", &summary);
+  EXPECT_EQ(FindManifoldViolation(out), "");
+  EXPECT_EQ(CountComponents(out), 1);
+  EXPECT_NEAR(double(out.vertices.size()), 2500, 250);
+  EXPECT_LT(MaxRadialError(out), 0.03);
+}
+
+// Upper hemisphere (z > 0) of a damaged sphere: an open, bounded surface.
+TriangleMesh DamagedDome(bool inward) {
+  TriangleMesh sphere = Icosphere(5);
+  std::vector<Eigen::Vector3i> faces;
+  for (const auto& f : sphere.faces) {
+    if (sphere.vertices[f[0]].z() > 0 && sphere.vertices[f[1]].z() > 0 && sphere.vertices[f[2]].z() > 0) {
+      faces.push_back(inward ? Eigen::Vector3i(f[0], f[2], f[1]) : f);
+    }
+  }
+  sphere.faces = faces;
+  Damage(&sphere, /*holes=*/false, 3);
+  return sphere;
+}
+
+TEST(MeshCleanup, DomeStaysOpenAndBoundedAndIsOrientedTowardsTheCameras) {
+  const TriangleMesh input = DamagedDome(/*inward=*/true);
+  MeshCleanupOptions options;
+  options.target_vertices = 3000;
+  MeshCleanupSummary summary;
+  TriangleMesh out = CleanMesh(input, options, "dome", &summary);
+  EXPECT_EQ(FindManifoldViolation(out), "");
+  EXPECT_EQ(CountComponents(out), 1);
+  EXPECT_GT(CountBoundaryEdges(out), 50u) << "the rim is a large boundary and stays open";
+  EXPECT_FALSE(summary.closed);
+  EXPECT_NEAR(double(out.vertices.size()), 3000, 300);
+
+  // Cameras above the dome, looking down at it.
+  Reconstruction cameras;
+  cameras.cameras[1] = Camera::Pinhole(1, 640, 480, 500, 500, 320, 240);
+  for (int i = 0; i < 8; ++i) {
+    const double a = 2 * M_PI * i / 8;
+    const Eigen::Vector3d centre(3 * std::cos(a), 3 * std::sin(a), 2.5);
+    const Eigen::Vector3d z = (-centre).normalized();
+    const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
+    const Eigen::Vector3d y = z.cross(x);
+    Eigen::Matrix3d r;
+    r.row(0) = x;
+    r.row(1) = y;
+    r.row(2) = z;
+    ImageRecord im;
+    im.image_id = i + 1;
+    im.camera_id = 1;
+    im.name = "view" + std::to_string(i);
+    im.SetPose(r, centre);
+    cameras.images[im.image_id] = im;
+  }
+  std::string method;
+  TriangleMesh by_cameras = out;
+  OrientOutward(&cameras, &by_cameras, &method);
+  EXPECT_EQ(method, "cameras");
+  EXPECT_GT(FractionOutward(by_cameras, Eigen::Vector3f::Zero()), 0.99);
+  TriangleMesh by_centroid = out;
+  OrientOutward(nullptr, &by_centroid, &method);
+  EXPECT_EQ(method, "centroid");
+  EXPECT_GT(FractionOutward(by_centroid, Eigen::Vector3f::Zero()), 0.99);
+}
+
+TEST(MeshCleanup, StanfordBunny) {
+  const std::string path = testing::SharedDataDir() + "/meshes/stanford-bunny.obj";
+  ASSERT_TRUE(std::filesystem::exists(path)) << path << " is part of the shared test data";
+  const TriangleMesh input = ReadMesh(path);
+  MeshCleanupOptions options;
+  options.target_vertices = 10000;
+  MeshCleanupSummary summary;
+  const TriangleMesh out = CleanMesh(input, options, path, &summary);
+  EXPECT_EQ(FindManifoldViolation(out), "");
+  EXPECT_EQ(CountComponents(out), 1);
+  EXPECT_NEAR(double(out.vertices.size()), 10000, 1000);
+  // Outward: the signed volume of a closed outward surface is positive; for an open one, faces
+  // point away from the centroid on average.
+  double volume = 0;
+  for (const auto& f : out.faces) {
+    volume += out.vertices[f[0]].cast<double>().dot(
+                  out.vertices[f[1]].cast<double>().cross(out.vertices[f[2]].cast<double>())) /
+              6.0;
+  }
+  if (summary.closed) {
+    EXPECT_GT(volume, 0);
+  }
+  TriangleMesh copy = out;
+  std::string method;
+  EXPECT_FALSE(OrientOutward(nullptr, &copy, &method)) << "already outward";
+}
+
+TEST(MeshCrop, BoxAndViews) {
+  const TriangleMesh sphere = Icosphere(3);
+  CropRegion region;
+  region.use_box = true;
+  region.box = Eigen::AlignedBox3d(Eigen::Vector3d(-2, -2, 0), Eigen::Vector3d(2, 2, 2));
+  size_t by_box = 0, by_views = 0;
+  const TriangleMesh top = CropMesh(sphere, region, &by_box, &by_views);
+  EXPECT_EQ(top.faces.size() + by_box, sphere.faces.size());
+  EXPECT_NEAR(double(top.faces.size()), sphere.faces.size() / 2.0, 0.05 * sphere.faces.size());
+  for (const auto& v : top.vertices) EXPECT_GT(v.z(), -0.2f);
+  // One camera on +X looking at the origin sees (in its frustum) only part of the sphere's surroundings.
+  Reconstruction cameras;
+  cameras.cameras[1] = Camera::Pinhole(1, 100, 100, 200, 200, 50, 50);  // tan(half field of view) = 0.25
+  ImageRecord im;
+  im.image_id = 1;
+  im.camera_id = 1;
+  Eigen::Matrix3d r;
+  r << 0, 1, 0, 0, 0, -1, -1, 0, 0;  // looks along -X
+  im.SetPose(r, Eigen::Vector3d(1.5, 0, 0));
+  cameras.images[1] = im;
+  CropRegion views;
+  views.cameras = &cameras;
+  views.min_views = 1;
+  const TriangleMesh seen = CropMesh(sphere, views, &by_box, &by_views);
+  EXPECT_GT(by_views, sphere.faces.size() / 2);
+  EXPECT_GT(seen.faces.size(), 0u);
+  for (size_t f = 0; f < seen.faces.size(); ++f) {
+    const Eigen::Vector3f c =
+        (seen.vertices[seen.faces[f][0]] + seen.vertices[seen.faces[f][1]] + seen.vertices[seen.faces[f][2]]) / 3.0f;
+    EXPECT_LT(c.x(), 1.5f);
+    EXPECT_LE(std::abs(c.y()), 0.25f * (1.5f - c.x()) + 1e-3f);  // inside the frustum
+    EXPECT_LE(std::abs(c.z()), 0.25f * (1.5f - c.x()) + 1e-3f);
+  }
+}
+
+TEST(MeshCrop, DistanceToPoints) {
+  // Data points only on the upper cap (z > 0.5): faces far from them go.
+  const TriangleMesh sphere = Icosphere(4);
+  std::vector<Eigen::Vector3d> points;
+  for (const auto& v : sphere.vertices) {
+    if (v.z() > 0.5f) points.push_back(v.cast<double>());
+  }
+  CropRegion region;
+  region.points = &points;
+  region.max_distance = 0.1;
+  size_t by_box = 0, by_views = 0, by_distance = 0;
+  const TriangleMesh kept = CropMesh(sphere, region, &by_box, &by_views, &by_distance);
+  EXPECT_EQ(kept.faces.size() + by_distance, sphere.faces.size());
+  EXPECT_GT(by_distance, sphere.faces.size() / 2);
+  for (const auto& v : kept.vertices) {
+    // Conservative grid test: kept faces lie within 2·√3 cells of a point.
+    EXPECT_GT(v.z(), 0.5f - 2 * std::sqrt(3.0f) * 0.1f - 0.1f);
+  }
+  for (const auto& v : sphere.vertices) {
+    if (v.z() > 0.55f) {
+      bool found = false;
+      for (const auto& k : kept.vertices) found |= (k - v).norm() < 1e-6f;
+      EXPECT_TRUE(found) << "a vertex near the data was cropped";
+      break;
+    }
+  }
+}
+
+TEST(MeshStage, FileSourceEndToEnd) {
+  testing::TempDir dir;
+  TriangleMesh input = Icosphere(5);
+  Damage(&input, true, 4);
+  WriteMeshPly(dir / "noisy.ply", input, /*binary=*/false);
+  MeshOptions options;
+  options.source = "file";
+  options.file = dir / "noisy.ply";
+  options.target_vertices = 4000;
+  std::filesystem::create_directories(dir / "out");
+  const MeshSummary s = RunMesh(options, MeshInputs{}, dir / "out");
+  EXPECT_TRUE(s.manifold);
+  EXPECT_EQ(s.components, 1);
+  EXPECT_EQ(s.boundary_edges, 0u);
+  const TriangleMesh out = ReadMesh(dir / "out/mesh.ply");
+  EXPECT_NEAR(double(out.vertices.size()), 4000, 400);
+  ASSERT_EQ(out.normals.size(), out.vertices.size());
+  EXPECT_GT(FractionOutward(out, Eigen::Vector3f::Zero()), 0.999);
+  const Json j = ReadJsonFile(dir / "out/mesh_summary.json");
+  EXPECT_EQ(j.at("output_vertices").get<size_t>(), out.vertices.size());
+  EXPECT_EQ(j.at("cleanup").at("holes_filled").get<int>(), 3);
+  EXPECT_TRUE(j.at("manifold").get<bool>());
+}
+
+TEST(MeshStage, GroundTruthIsPassedThroughWithItsProperties) {
+  testing::TempDir dir;
+  std::filesystem::create_directories(dir / "ingest/ground_truth");
+  TriangleMesh object = Icosphere(2);
+  auto& w0 = object.Property("w0");
+  for (size_t i = 0; i < w0.size(); ++i) w0[i] = float(i) / w0.size();
+  WriteMeshPly(dir / "ingest/ground_truth/mesh.ply", object);
+  TriangleMesh ground;
+  ground.vertices = {{-5, -5, -1}, {5, -5, -1}, {5, 5, -1}, {-5, 5, -1}};
+  ground.faces = {{0, 1, 2}, {0, 2, 3}};
+  WriteMeshPly(dir / "ingest/ground_truth/occluders.ply", ground);
+  MeshOptions options;
+  options.source = "ground_truth";
+  std::filesystem::create_directories(dir / "out");
+  MeshInputs inputs;
+  inputs.ingest_dir = dir / "ingest";
+  const MeshSummary s = RunMesh(options, inputs, dir / "out");
+  EXPECT_FALSE(s.cleaned);
+  const TriangleMesh out = ReadMesh(dir / "out/mesh.ply");
+  ASSERT_EQ(out.vertices.size(), object.vertices.size());
+  ASSERT_NE(out.FindProperty("w0"), nullptr);
+  EXPECT_EQ(*out.FindProperty("w0"), w0);
+  EXPECT_EQ(out.normals.size(), out.vertices.size());
+  EXPECT_EQ(ReadMesh(dir / "out/occluders.ply").faces.size(), 2u);
+}
+
+TEST(MeshStage, ClearErrors) {
+  testing::TempDir dir;
+  std::filesystem::create_directories(dir / "out");
+  MeshOptions options;  // source mvs without an mvs stage
+  try {
+    RunMesh(options, MeshInputs{}, dir / "out");
+    FAIL() << "expected a UserError";
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("mvs"), std::string::npos) << e.what();
+  }
+  options.source = "ground_truth";
+  MeshInputs inputs;
+  inputs.ingest_dir = dir.path();
+  try {
+    RunMesh(options, inputs, dir / "out");
+    FAIL() << "expected a UserError";
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("ground_truth/mesh.ply"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace relight

@@ -1,0 +1,834 @@
+// The sfm stage (see sfm.h). COLMAP does the work (feature extraction,
+// matching, incremental mapping, undistortion); this file chooses its options
+// from the collection, feeds it 8-bit images, checks every output itself (an
+// exit code of 0 does not mean success, ../shared/COLMAP.md) and converts the
+// result into the project's frame and naming.
+#include "sfm/sfm.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/json.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "core/timer.h"
+#include "image/image.h"
+#include "sfm/colmap_command.h"
+#include "sfm/colmap_database.h"
+
+namespace relight {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Minimum inliers for a pair to count as "matched" in diagnostics (COLMAP's
+// two-view geometry default min_num_inliers).
+constexpr int kMinPairInliers = 15;
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+float SrgbEncode(float linear) {
+  linear = std::clamp(linear, 0.0f, 1.0f);
+  return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
+}
+
+// Tone-maps a linear (EXR/HDR) photo to an 8-bit sRGB PNG for SIFT: the 99th
+// percentile of luminance maps to white.
+void ToneMapForColmap(const std::string& in_path, const std::string& out_path) {
+  Image image = ReadImage(in_path);
+  std::vector<float> luminance;
+  const size_t n = size_t(image.width) * image.height;
+  const size_t step = std::max<size_t>(1, n / 100000);
+  for (size_t p = 0; p < n; p += step) {
+    const float* px = &image.pixels[p * image.channels];
+    luminance.push_back(image.channels >= 3 ? 0.2126f * px[0] + 0.7152f * px[1] + 0.0722f * px[2] : px[0]);
+  }
+  const size_t k = std::min(luminance.size() - 1, luminance.size() * 99 / 100);
+  std::nth_element(luminance.begin(), luminance.begin() + k, luminance.end());
+  const float white = luminance[k] > 0 ? luminance[k] : 1.0f;
+  for (float& v : image.pixels) v = SrgbEncode(v / white);
+  WriteOptions w;
+  w.type = PixelType::kUint8;
+  WriteImage(out_path, image, w);
+}
+
+// Links (or copies) the ingested photos into COLMAP's image folder under
+// COLMAP-friendly names; float photos are tone-mapped to PNG.
+void PrepareColmapImages(const std::string& ingest_dir, const std::vector<IngestedPhoto>& photos,
+                         const std::string& image_dir, std::vector<SfmPhoto>* status) {
+  std::error_code ec;
+  fs::remove_all(image_dir, ec);
+  EnsureDir(image_dir);
+  Progress progress("prepare images for COLMAP", static_cast<int64_t>(photos.size()));
+  for (size_t i = 0; i < photos.size(); ++i) {
+    const IngestedPhoto& p = photos[i];
+    const fs::path source = fs::path(ingest_dir) / p.file;
+    if (!fs::is_regular_file(source)) {
+      RELIGHT_USER_ERROR() << "photo '" << p.name << "' is listed in " << ingest_dir << "/manifest.json but its file '"
+                           << source.string() << "' is missing; rerun the ingest stage (pipeline run --force ingest)";
+    }
+    SfmPhoto& s = (*status)[i];
+    if (p.linear) {
+      s.colmap_name = source.stem().string() + ".png";
+      ToneMapForColmap(source.string(), JoinPath(image_dir, s.colmap_name));
+    } else {
+      s.colmap_name = source.filename().string();
+      const std::string target = JoinPath(image_dir, s.colmap_name);
+      fs::create_symlink(fs::absolute(source), target, ec);
+      if (ec) {
+        ec.clear();
+        fs::copy_file(source, target, fs::copy_options::overwrite_existing, ec);
+        if (ec)
+          RELIGHT_USER_ERROR() << "cannot copy '" << source.string() << "' to '" << target << "': " << ec.message();
+      }
+    }
+    progress.Advance();
+  }
+  progress.Finish();
+}
+
+// Runs one COLMAP step with a progress display fed by COLMAP's own lines.
+// `marker` selects the "[i/n" counter to follow (empty: none).
+ColmapResult RunStep(const std::string& label, const ColmapCommand& command, const std::string& marker,
+                     int64_t expected_total, std::vector<std::pair<std::string, double>>* step_seconds,
+                     bool throw_on_failure = true) {
+  RLOG_INFO("{}: {}", label, command.ToString());
+  Progress progress(label, std::max<int64_t>(1, expected_total));
+  int64_t shown = 0;
+  const ColmapResult result = RunColmap(command, [&](const std::string& line) {
+    int done = 0, total = 0;
+    if (!marker.empty() && ParseBracketCount(line, marker, &done, &total)) {
+      const int64_t target = expected_total > 0 ? std::min<int64_t>(done, expected_total) : done;
+      if (target > shown) {
+        progress.Advance(target - shown);
+        shown = target;
+      }
+    } else if (marker.empty()) {
+      // mapper: "Initializing with image pair #a and #b", then "Registering image #id (k)" (k-th registration).
+      int64_t target = shown;
+      if (line.rfind("Initializing with image pair", 0) == 0) target = std::max<int64_t>(shown, 2);
+      const size_t paren = line.rfind('(');
+      int k = 0;
+      if (line.rfind("Registering image #", 0) == 0 && paren != std::string::npos &&
+          std::sscanf(line.c_str() + paren, "(%d)", &k) == 1) {
+        target = std::max<int64_t>(shown, k - 1);
+      }
+      target = std::min(target, expected_total);
+      if (target > shown) {
+        progress.Advance(target - shown);
+        shown = target;
+      }
+    }
+  });
+  progress.Finish();
+  step_seconds->emplace_back(label, result.seconds);
+  if (!result.ok() && throw_on_failure) {
+    RELIGHT_USER_ERROR() << "COLMAP " << command.command << " failed (" << result.Describe()
+                         << "): " << result.TailText() << " (full output in stage.log)";
+  }
+  return result;
+}
+
+bool AllSame(const std::vector<IngestedPhoto>& photos, std::string* difference) {
+  for (const auto& p : photos) {
+    const auto& q = photos.front();
+    if (p.width != q.width || p.height != q.height) {
+      *difference = q.name + " is " + std::to_string(q.width) + "x" + std::to_string(q.height) + ", " + p.name +
+                    " is " + std::to_string(p.width) + "x" + std::to_string(p.height);
+      return false;
+    }
+    if (p.exif.camera_make != q.exif.camera_make || p.exif.camera_model != q.exif.camera_model) {
+      *difference = q.name + " and " + p.name + " come from different cameras";
+      return false;
+    }
+    if (p.focal_px.has_value() != q.focal_px.has_value() ||
+        (p.focal_px && std::abs(*p.focal_px - *q.focal_px) > 1e-3 * *q.focal_px)) {
+      *difference = q.name + " and " + p.name + " have different EXIF focal lengths";
+      return false;
+    }
+  }
+  return true;
+}
+
+// Sets each camera's focal length from the EXIF prior (ingest's focal_px), or
+// to COLMAP's default guess without a prior when EXIF is not to be used.
+void ApplyFocalPriors(const SfmOptions& options, const std::string& database_path,
+                      const std::vector<IngestedPhoto>& photos, const std::vector<SfmPhoto>& status) {
+  ColmapDatabase db(database_path);
+  std::map<std::string, const IngestedPhoto*> by_colmap_name;
+  for (size_t i = 0; i < photos.size(); ++i) by_colmap_name[status[i].colmap_name] = &photos[i];
+  std::map<int, std::vector<double>> focal_by_camera;
+  std::set<int> used_cameras;
+  for (const auto& im : db.ReadImages()) {
+    auto it = by_colmap_name.find(im.name);
+    if (it == by_colmap_name.end()) continue;
+    used_cameras.insert(im.camera_id);
+    if (it->second->focal_px) focal_by_camera[im.camera_id].push_back(*it->second->focal_px);
+  }
+  const bool single_focal = options.camera_model == "SIMPLE_PINHOLE" || options.camera_model == "SIMPLE_RADIAL" ||
+                            options.camera_model == "RADIAL";
+  int with_prior = 0;
+  for (auto [id, camera] : db.ReadCameras()) {
+    if (!used_cameras.count(id)) continue;
+    double focal = 1.2 * std::max(camera.width, camera.height);  // COLMAP's default guess
+    bool prior = false;
+    if (options.use_exif_focal && focal_by_camera.count(id)) {
+      focal = Median(focal_by_camera[id]);
+      prior = true;
+      ++with_prior;
+    }
+    camera.params[0] = focal;
+    if (!single_focal) camera.params[1] = focal;
+    camera.prior_focal_length = prior;
+    db.UpdateCamera(camera);
+  }
+  RLOG_INFO("cameras: {} of {} start from an EXIF focal length prior", with_prior, used_cameras.size());
+}
+
+std::string ChooseMatcher(const SfmOptions& options, int num_photos) {
+  if (options.matcher != "auto") return options.matcher;
+  if (num_photos <= options.exhaustive_max_photos) return "exhaustive";
+  if (!options.vocab_tree.empty()) return "vocab_tree";
+  RLOG_WARN(
+      "{} photos > sfm.exhaustive_max_photos = {} but no sfm.vocab_tree is set: matching exhaustively "
+      "(about {} pairs; this can take hours). Set sfm.vocab_tree to a COLMAP vocabulary tree to go faster.",
+      num_photos, options.exhaustive_max_photos, int64_t(num_photos) * (num_photos - 1) / 2);
+  return "exhaustive";
+}
+
+// Reads every model below `models_dir` (mapper output 0/, 1/, ...), largest first.
+std::vector<Reconstruction> ReadModels(const std::string& models_dir) {
+  std::vector<Reconstruction> models;
+  if (!fs::is_directory(models_dir)) return models;
+  std::vector<fs::path> dirs;
+  for (const auto& e : fs::directory_iterator(models_dir)) {
+    if (e.is_directory() && fs::exists(e.path() / "images.bin")) dirs.push_back(e.path());
+  }
+  std::sort(dirs.begin(), dirs.end());
+  for (const auto& d : dirs) models.push_back(Reconstruction::ReadBinary(d.string()));
+  std::stable_sort(models.begin(), models.end(), [](const Reconstruction& a, const Reconstruction& b) {
+    if (a.images.size() != b.images.size()) return a.images.size() > b.images.size();
+    return a.points3d.size() > b.points3d.size();
+  });
+  return models;
+}
+
+// The model with images renamed from COLMAP names to photo names (or back).
+void RenameImages(const std::map<std::string, std::string>& new_from_old, Reconstruction* model) {
+  for (auto& [id, image] : model->images) {
+    auto it = new_from_old.find(image.name);
+    RELIGHT_CHECK(it != new_from_old.end()) << "image " << image.name << " has no name mapping";
+    image.name = it->second;
+  }
+}
+
+// Writes the model into sparse/ (binary) and sparse_txt/ (text).
+void WriteModels(const Reconstruction& model, const std::string& output_dir) {
+  for (const char* sub : {"sparse", "sparse_txt"}) {
+    const std::string dir = JoinPath(output_dir, sub);
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+    EnsureDir(dir);
+  }
+  model.WriteBinary(JoinPath(output_dir, "sparse"));
+  model.WriteText(JoinPath(output_dir, "sparse_txt"));
+  // Verify what was written can be read back as the same model.
+  const Reconstruction check = Reconstruction::ReadBinary(JoinPath(output_dir, "sparse"));
+  RELIGHT_CHECK_EQ(check.images.size(), model.images.size());
+  RELIGHT_CHECK_EQ(check.points3d.size(), model.points3d.size());
+}
+
+// Undistorts the registered photos into dense/ (COLMAP workspace for MVS).
+// `model_colmap_names` is the world-frame model with COLMAP image names.
+void Undistort(const SfmOptions& options, const Reconstruction& model_colmap_names, const std::string& work_dir,
+               const std::string& image_dir, const std::string& output_dir, SfmSummary* summary) {
+  const std::string input = JoinPath(work_dir, "world");
+  std::error_code ec;
+  fs::remove_all(input, ec);
+  EnsureDir(input);
+  model_colmap_names.WriteBinary(input);
+  const std::string dense = JoinPath(output_dir, "dense");
+  const std::string dense_tmp = dense + std::string(kTempMarker) + "undistort";
+  fs::remove_all(dense_tmp, ec);
+  EnsureDir(dense_tmp);
+  ColmapCommand cmd{"image_undistorter", {}};
+  cmd.Arg("--image_path", image_dir)
+      .Arg("--input_path", input)
+      .Arg("--output_path", dense_tmp)
+      .Arg("--output_type", std::string("COLMAP"))
+      .Arg("--max_image_size", options.undistort_max_image_size > 0 ? options.undistort_max_image_size : -1);
+  RunStep("undistort", cmd, "Undistorting image", static_cast<int64_t>(model_colmap_names.images.size()),
+          &summary->step_seconds);
+  // Check the workspace: every registered image and the model must be there.
+  for (const auto& [id, image] : model_colmap_names.images) {
+    if (!fs::is_regular_file(fs::path(dense_tmp) / "images" / image.name)) {
+      RELIGHT_USER_ERROR() << "COLMAP image_undistorter did not write '" << image.name << "' into " << dense_tmp
+                           << "/images (see stage.log)";
+    }
+  }
+  const Reconstruction undistorted = Reconstruction::Read(JoinPath(dense_tmp, "sparse"));
+  if (undistorted.images.size() != model_colmap_names.images.size()) {
+    RELIGHT_USER_ERROR() << "COLMAP image_undistorter wrote " << undistorted.images.size() << " of "
+                         << model_colmap_names.images.size() << " images into " << dense_tmp
+                         << "/sparse (see stage.log)";
+  }
+  ReplaceDir(dense_tmp, dense);
+}
+
+std::string JoinNames(const std::vector<std::string>& names, size_t max_names = 20) {
+  std::string s;
+  for (size_t i = 0; i < names.size() && i < max_names; ++i) s += (i ? ", " : "") + names[i];
+  if (names.size() > max_names) s += ", ... (" + std::to_string(names.size() - max_names) + " more)";
+  return s;
+}
+
+// Fills registration status and reasons from the final model.
+void MarkRegistered(const Reconstruction& model, SfmSummary* summary) {
+  summary->num_registered = 0;
+  for (auto& p : summary->photos) {
+    p.registered = model.FindImage(p.name) != nullptr;
+    if (p.registered) {
+      p.reason.clear();
+      ++summary->num_registered;
+    }
+  }
+  summary->num_points3d = model.points3d.size();
+  summary->mean_reprojection_error_px = model.MeanReprojectionError();
+}
+
+void CheckRegistered(const SfmOptions& options, const SfmSummary& summary, const std::string& where) {
+  const auto dropped = summary.UnregisteredNames();
+  if (summary.num_registered < options.min_registered) {
+    RELIGHT_USER_ERROR() << where << ": only " << summary.num_registered << " of " << summary.num_photos
+                         << " photos registered (need sfm.min_registered = " << options.min_registered
+                         << "); unregistered: " << JoinNames(dropped)
+                         << ". Add photos that overlap more, or see stage.log for COLMAP's output";
+  }
+  if (!dropped.empty()) {
+    std::string details;
+    for (const auto& p : summary.photos) {
+      if (!p.registered) details += "\n  " + p.name + ": " + p.reason;
+    }
+    RLOG_WARN("{} of {} photos are not in the model and are dropped:{}", dropped.size(), summary.num_photos, details);
+  }
+}
+
+SfmSummary RunColmapMode(const SfmOptions& options, const std::string& ingest_dir,
+                         const std::vector<IngestedPhoto>& photos, const std::string& output_dir, int threads,
+                         SfmSummary summary) {
+  CheckColmapAvailable();
+  const std::string work = JoinPath(output_dir, "colmap");
+  std::error_code ec;
+  fs::remove_all(work, ec);  // a killed earlier run leaves a half-filled database
+  EnsureDir(work);
+  const std::string image_dir = JoinPath(work, "images");
+  const std::string database = JoinPath(work, "database.db");
+  const int n = static_cast<int>(photos.size());
+  const std::string thread_count = std::to_string(threads > 0 ? threads : -1);
+
+  Timer step;
+  PrepareColmapImages(ingest_dir, photos, image_dir, &summary.photos);
+  summary.step_seconds.emplace_back("prepare images", step.Seconds());
+
+  // Intrinsics: one shared camera needs one size and one camera.
+  std::string difference;
+  const bool all_same = AllSame(photos, &difference);
+  if (options.shared_intrinsics == "single" && !all_same) {
+    RELIGHT_USER_ERROR() << "sfm.shared_intrinsics is single but the photos differ (" << difference
+                         << "); set sfm.shared_intrinsics: per_image (or auto)";
+  }
+  summary.shared_intrinsics =
+      options.shared_intrinsics == "auto" ? (all_same ? "single" : "per_image") : options.shared_intrinsics;
+  RLOG_INFO("intrinsics: {} {} camera{}{}", summary.shared_intrinsics == "single" ? "one shared" : "one per photo,",
+            options.camera_model, summary.shared_intrinsics == "single" ? "" : "s",
+            all_same ? "" : " (" + difference + ")");
+
+  // Names file: exactly the manifest's photos, in manifest order.
+  const std::string list_path = JoinPath(work, "image_list.txt");
+  {
+    std::string list;
+    for (const auto& p : summary.photos) list += p.colmap_name + "\n";
+    WriteFileAtomic(list_path, list);
+  }
+
+  ColmapCommand extract{"feature_extractor", {}};
+  extract.Arg("--database_path", database)
+      .Arg("--image_path", image_dir)
+      .Arg("--image_list_path", list_path)
+      .Arg("--ImageReader.camera_model", options.camera_model)
+      .Arg("--ImageReader.single_camera", summary.shared_intrinsics == "single")
+      .Arg("--SiftExtraction.use_gpu", false)
+      .Arg("--SiftExtraction.num_threads", thread_count)
+      .Arg("--SiftExtraction.max_image_size", options.max_image_size)
+      .Arg("--SiftExtraction.max_num_features", options.max_num_features)
+      .Arg("--random_seed", options.seed);
+  RunStep("extract features", extract, "Processed file", n, &summary.step_seconds);
+  if (!fs::is_regular_file(database)) {
+    RELIGHT_USER_ERROR() << "COLMAP feature_extractor wrote no database at '" << database << "' (see stage.log)";
+  }
+  {
+    ColmapDatabase db(database);
+    std::map<std::string, int> keypoints;
+    for (const auto& im : db.ReadImages()) keypoints[im.name] = im.num_keypoints;
+    int with_features = 0;
+    for (auto& p : summary.photos) {
+      auto it = keypoints.find(p.colmap_name);
+      p.num_keypoints = it == keypoints.end() ? 0 : it->second;
+      if (it == keypoints.end()) {
+        p.reason = "COLMAP could not read the image (see stage.log)";
+      } else if (p.num_keypoints == 0) {
+        p.reason = "no SIFT features (blank, blurred or unreadable photo)";
+      } else {
+        ++with_features;
+      }
+    }
+    if (with_features < 2) {
+      RELIGHT_USER_ERROR() << "COLMAP found SIFT features in only " << with_features << " of " << n << " photos of "
+                           << ingest_dir << "; the photos need texture (see stage.log)";
+    }
+  }
+  ApplyFocalPriors(options, database, photos, summary.photos);
+
+  const bool all_priors = options.use_exif_focal && std::all_of(photos.begin(), photos.end(),
+                                                                [](const auto& p) { return p.focal_px.has_value(); });
+  summary.refine_intrinsics =
+      options.refine_intrinsics == "auto" ? (all_priors ? "final" : "mapping") : options.refine_intrinsics;
+  if (summary.refine_intrinsics != "mapping" && !all_priors) {
+    RLOG_WARN(
+        "sfm.refine_intrinsics is {} but not every photo has an EXIF focal length: those start from "
+        "COLMAP's guess (1.2 x the longer side) and are only refined {}",
+        summary.refine_intrinsics, summary.refine_intrinsics == "final" ? "at the end" : "never");
+  }
+  RLOG_INFO("intrinsics refinement: {}", summary.refine_intrinsics);
+
+  summary.matcher = ChooseMatcher(options, n);
+  ColmapCommand match{summary.matcher + "_matcher", {}};
+  match.Arg("--database_path", database)
+      .Arg("--SiftMatching.use_gpu", false)
+      .Arg("--SiftMatching.num_threads", thread_count)
+      .Arg("--random_seed", options.seed);
+  std::string marker = "Matching block";
+  int64_t match_total = 0;
+  if (summary.matcher == "exhaustive") {
+    const int block = 50;  // COLMAP's ExhaustiveMatching.block_size default
+    const int blocks = (n + block - 1) / block;
+    match_total = int64_t(blocks) * blocks;
+  } else if (summary.matcher == "sequential") {
+    match.Arg("--SequentialMatching.overlap", options.sequential_overlap);
+    if (!options.vocab_tree.empty()) {
+      match.Arg("--SequentialMatching.loop_detection", true)
+          .Arg("--SequentialMatching.vocab_tree_path", options.vocab_tree);
+    }
+    marker = "Matching image";
+    match_total = n;
+  } else if (summary.matcher == "vocab_tree") {
+    match.Arg("--VocabTreeMatching.vocab_tree_path", options.vocab_tree);
+    marker = "Matching image";
+    match_total = n;
+  } else {
+    marker = "Matching image";
+    match_total = n;
+  }
+  // A single exhaustive block reports no progress, so the bar would only jump at the end.
+  RunStep("match features (" + summary.matcher + ")", match, marker, match_total, &summary.step_seconds);
+  int verified_pairs = 0;
+  {
+    ColmapDatabase db(database);
+    verified_pairs = db.CountVerifiedPairs(kMinPairInliers);
+    std::map<std::string, int> partners;
+    for (const auto& im : db.ReadImages(kMinPairInliers)) partners[im.name] = im.num_verified_partners;
+    for (auto& p : summary.photos) {
+      p.num_matched_photos = partners.count(p.colmap_name) ? partners[p.colmap_name] : 0;
+      if (p.reason.empty() && p.num_matched_photos == 0) {
+        p.reason = "no verified matches with any other photo (different object or too little overlap)";
+      }
+    }
+    RLOG_INFO("matching: {} photo pairs with at least {} verified matches", verified_pairs, kMinPairInliers);
+  }
+  if (verified_pairs == 0) {
+    RELIGHT_USER_ERROR() << "nothing registered: no two of the " << n << " photos of " << ingest_dir
+                         << " share enough features to be matched. Check that the photos show the same object "
+                         << "from overlapping viewpoints, and add photos in between";
+  }
+
+  const std::string models_dir = JoinPath(work, "sparse");
+  EnsureDir(models_dir);  // mapper fails when its output folder is missing
+  ColmapCommand map{"mapper", {}};
+  map.Arg("--database_path", database)
+      .Arg("--image_path", image_dir)
+      .Arg("--output_path", models_dir)
+      .Arg("--Mapper.num_threads", thread_count)
+      .Arg("--Mapper.min_model_size", std::min(options.min_model_size, n))
+      .Arg("--Mapper.abs_pose_min_num_inliers", options.abs_pose_min_num_inliers)
+      .Arg("--Mapper.abs_pose_min_inlier_ratio", options.abs_pose_min_inlier_ratio)
+      .Arg("--Mapper.ba_refine_principal_point", options.refine_principal_point)
+      .Arg("--Mapper.ba_refine_focal_length", summary.refine_intrinsics == "mapping")
+      .Arg("--Mapper.ba_refine_extra_params", summary.refine_intrinsics == "mapping")
+      .Arg("--random_seed", options.seed);
+  // The mapper exits with 1 when it finds no initial pair: judged by its output below.
+  const ColmapResult mapped = RunStep("map", map, "", n, &summary.step_seconds, /*throw_on_failure=*/false);
+  std::vector<Reconstruction> models = ReadModels(models_dir);
+  summary.num_models = static_cast<int>(models.size());
+  if (models.empty()) {
+    RELIGHT_USER_ERROR() << "nothing registered: COLMAP's mapper built no model from the " << n << " photos of "
+                         << ingest_dir << " (" << verified_pairs
+                         << " matched photo pairs; mapper: " << mapped.TailText(2)
+                         << "). Add photos with more overlap and texture, or lower "
+                         << "sfm.abs_pose_min_num_inliers / sfm.min_model_size; see stage.log";
+  }
+  if (!mapped.ok())
+    RLOG_WARN("COLMAP mapper: {} but it wrote {} model(s); using them", mapped.Describe(), models.size());
+  for (size_t i = 1; i < models.size(); ++i) {
+    std::vector<std::string> names;
+    for (const auto& [id, im] : models[i].images) names.push_back(im.name);
+    RLOG_WARN("COLMAP built {} separate models; model {} ({} photos: {}) is dropped, the largest has {}", models.size(),
+              i, names.size(), JoinNames(names), models[0].images.size());
+  }
+  Reconstruction model = std::move(models[0]);
+  models.clear();
+  if (summary.refine_intrinsics == "final") {
+    // One global bundle adjustment of the largest model with focal length and distortion free.
+    const std::string ba_in = JoinPath(work, "largest");
+    const std::string ba_out = JoinPath(work, "refined");
+    for (const auto& d : {ba_in, ba_out}) {
+      fs::remove_all(d, ec);
+      EnsureDir(d);
+    }
+    model.WriteBinary(ba_in);
+    ColmapCommand ba{"bundle_adjuster", {}};
+    ba.Arg("--input_path", ba_in)
+        .Arg("--output_path", ba_out)
+        .Arg("--BundleAdjustment.refine_focal_length", true)
+        .Arg("--BundleAdjustment.refine_extra_params", true)
+        .Arg("--BundleAdjustment.refine_principal_point", options.refine_principal_point)
+        .Arg("--random_seed", options.seed);
+    RunStep("refine intrinsics", ba, "", 0, &summary.step_seconds);
+    Reconstruction refined = Reconstruction::Read(ba_out);
+    if (refined.images.size() != model.images.size()) {
+      RELIGHT_USER_ERROR() << "COLMAP bundle_adjuster returned " << refined.images.size() << " of "
+                           << model.images.size() << " images in " << ba_out << " (see stage.log)";
+    }
+    RLOG_INFO("final bundle adjustment: reprojection error {:.3f} -> {:.3f} px", model.MeanReprojectionError(),
+              refined.MeanReprojectionError());
+    model = std::move(refined);
+    fs::remove_all(ba_in, ec);
+    fs::remove_all(ba_out, ec);
+  }
+
+  // Name maps and reasons for photos left out of the largest model.
+  std::map<std::string, std::string> name_from_colmap, colmap_from_name;
+  for (const auto& p : summary.photos) {
+    name_from_colmap[p.colmap_name] = p.name;
+    colmap_from_name[p.name] = p.colmap_name;
+  }
+  for (auto& p : summary.photos) {
+    if (model.FindImage(p.colmap_name) == nullptr && p.reason.empty()) {
+      p.reason = "matched with " + std::to_string(p.num_matched_photos) +
+                 " photo(s) but could not be registered to the largest model (too few inlier matches; "
+                 "lowering sfm.abs_pose_min_num_inliers may help)";
+    }
+  }
+
+  // World frame: +Z up.
+  summary.world_from_colmap = options.align_up ? UpAlignment(model) : Sim3();
+  model.Transform(summary.world_from_colmap);
+  Undistort(options, model, work, image_dir, output_dir, &summary);
+
+  RenameImages(name_from_colmap, &model);
+  MarkRegistered(model, &summary);
+  CheckRegistered(options, summary, ingest_dir);
+  WriteModels(model, output_dir);
+
+  // The working folder: links to the ingest cache, raw models, the database.
+  fs::remove_all(image_dir, ec);
+  fs::remove_all(JoinPath(work, "world"), ec);
+  if (!options.keep_database) fs::remove(database, ec);
+  return summary;
+}
+
+// ground_truth and model modes: a given model, conformed to the photos.
+SfmSummary RunGivenModelMode(const SfmOptions& options, const std::string& ingest_dir,
+                             const std::vector<IngestedPhoto>& photos, const std::string& output_dir,
+                             SfmSummary summary) {
+  std::string model_dir;
+  if (options.mode == "ground_truth") {
+    model_dir = JoinPath(ingest_dir, "ground_truth");
+    if (!fs::exists(JoinPath(model_dir, "images.txt")) && !fs::exists(JoinPath(model_dir, "images.bin"))) {
+      RELIGHT_USER_ERROR() << "sfm.mode is ground_truth but " << model_dir
+                           << " has no cameras.txt/images.txt; set ingest.ground_truth (or use a synthesize: "
+                              "section), or set sfm.mode: colmap";
+    }
+  } else {
+    model_dir = options.model;
+  }
+  Timer step;
+  Reconstruction model = Reconstruction::Read(model_dir);
+  const auto unknown = ConformToPhotos(photos, model_dir, &model);
+  if (!unknown.empty()) {
+    RLOG_WARN("{} image(s) of {} are not among the ingested photos and are ignored: {}", unknown.size(), model_dir,
+              JoinNames(unknown));
+  }
+  for (auto& p : summary.photos) {
+    if (model.FindImage(p.name) == nullptr) p.reason = "not in the given model " + model_dir;
+  }
+  summary.step_seconds.emplace_back("read model", step.Seconds());
+  if (options.mode == "model" && options.align_up) {
+    summary.world_from_colmap = UpAlignment(model);
+    model.Transform(summary.world_from_colmap);
+  }
+  MarkRegistered(model, &summary);
+  if (summary.num_registered == 0) {
+    RELIGHT_USER_ERROR() << "nothing registered: none of the images of " << model_dir
+                         << " is one of the ingested photos (names must match the photo file names)";
+  }
+  CheckRegistered(options, summary, model_dir);
+
+  // dense/ workspace from the registered photos.
+  CheckColmapAvailable();
+  const std::string work = JoinPath(output_dir, "colmap");
+  std::error_code ec;
+  fs::remove_all(work, ec);
+  EnsureDir(work);
+  const std::string image_dir = JoinPath(work, "images");
+  step.Restart();
+  PrepareColmapImages(ingest_dir, photos, image_dir, &summary.photos);
+  summary.step_seconds.emplace_back("prepare images", step.Seconds());
+  std::map<std::string, std::string> colmap_from_name;
+  for (const auto& p : summary.photos) colmap_from_name[p.name] = p.colmap_name;
+  Reconstruction colmap_names = model;
+  RenameImages(colmap_from_name, &colmap_names);
+  Undistort(options, colmap_names, work, image_dir, output_dir, &summary);
+  WriteModels(model, output_dir);
+  fs::remove_all(work, ec);
+  return summary;
+}
+
+}  // namespace
+
+std::vector<std::string> SfmSummary::UnregisteredNames() const {
+  std::vector<std::string> names;
+  for (const auto& p : photos) {
+    if (!p.registered) names.push_back(p.name);
+  }
+  return names;
+}
+
+std::string SfmSummary::BriefReport() const {
+  std::ostringstream s;
+  s << "sfm (" << mode << "): " << num_registered << "/" << num_photos << " photos registered, " << num_points3d
+    << " 3D points, mean reprojection error " << mean_reprojection_error_px << " px";
+  if (mode == "colmap") {
+    s << ", matcher " << matcher << ", intrinsics " << shared_intrinsics << " (refined: " << refine_intrinsics << ")";
+  }
+  s << "; steps:";
+  for (const auto& [name, seconds] : step_seconds) s << " " << name << " " << Progress::FormatSeconds(seconds) << ",";
+  s << " total " << Progress::FormatSeconds(seconds);
+  return s.str();
+}
+
+Sim3 UpAlignment(const Reconstruction& reconstruction) {
+  Eigen::Vector3d up_sum = Eigen::Vector3d::Zero();
+  for (const auto& [id, image] : reconstruction.images) {
+    // Image -y in world coordinates: -(R^T e_y) = -(row 1 of R).
+    up_sum -= image.CamFromWorldRotation().row(1).transpose();
+  }
+  Sim3 t;
+  if (reconstruction.images.empty() || up_sum.norm() < 1e-3 * reconstruction.images.size()) {
+    RLOG_WARN("the cameras' up directions cancel out; the model keeps COLMAP's orientation");
+    return t;
+  }
+  t.rotation = Eigen::Quaterniond::FromTwoVectors(up_sum.normalized(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return t;
+}
+
+std::vector<std::string> ConformToPhotos(const std::vector<IngestedPhoto>& photos, const std::string& where,
+                                         Reconstruction* model) {
+  std::map<std::string, const IngestedPhoto*> by_name, by_file;
+  for (const auto& p : photos) {
+    by_name[p.name] = &p;
+    by_file[fs::path(p.file).filename().string()] = &p;
+  }
+  std::vector<std::string> unknown;
+  std::map<std::pair<uint32_t, std::pair<int, int>>, uint32_t> rescaled_ids;
+  uint32_t next_camera_id = model->cameras.empty() ? 1 : model->cameras.rbegin()->first + 1;
+  std::map<uint32_t, Camera> new_cameras;
+  for (auto it = model->images.begin(); it != model->images.end();) {
+    ImageRecord& image = it->second;
+    const IngestedPhoto* photo = by_name.count(image.name)   ? by_name[image.name]
+                                 : by_file.count(image.name) ? by_file[image.name]
+                                                             : nullptr;
+    if (photo == nullptr) {
+      unknown.push_back(image.name);
+      it = model->images.erase(it);
+      continue;
+    }
+    image.name = photo->name;
+    auto cam = model->cameras.find(image.camera_id);
+    if (cam == model->cameras.end()) {
+      RELIGHT_USER_ERROR() << where << ": image '" << image.name << "' refers to camera " << image.camera_id
+                           << ", which is not in cameras.txt/.bin";
+    }
+    const Camera& c = cam->second;
+    if (c.width == photo->width && c.height == photo->height) {
+      new_cameras[c.camera_id] = c;
+    } else {
+      const double sx = double(photo->width) / c.width, sy = double(photo->height) / c.height;
+      if (std::abs(sx - sy) > 0.01 * sx) {
+        RELIGHT_USER_ERROR() << where << ": camera " << c.camera_id << " is " << c.width << "x" << c.height
+                             << " but photo '" << photo->name << "' is " << photo->width << "x" << photo->height
+                             << " (different aspect ratio); the model does not belong to these photos";
+      }
+      const auto key = std::make_pair(c.camera_id, std::make_pair(photo->width, photo->height));
+      auto r = rescaled_ids.find(key);
+      if (r == rescaled_ids.end()) {
+        Camera scaled = c;
+        scaled.Rescale(sx);
+        scaled.width = photo->width;
+        scaled.height = photo->height;
+        scaled.camera_id = next_camera_id++;
+        new_cameras[scaled.camera_id] = scaled;
+        r = rescaled_ids.emplace(key, scaled.camera_id).first;
+      }
+      image.camera_id = r->second;
+    }
+    // Observations are in the model's pixels; rescale them too.
+    const Camera& final_camera = new_cameras[image.camera_id];
+    const double s = double(final_camera.width) / c.width;
+    if (s != 1.0) {
+      for (auto& p2 : image.points2d) p2.xy *= s;
+    }
+    ++it;
+  }
+  model->cameras = std::move(new_cameras);
+  // Tracks of removed images.
+  std::set<uint32_t> kept;
+  for (const auto& [id, im] : model->images) kept.insert(id);
+  for (auto it = model->points3d.begin(); it != model->points3d.end();) {
+    auto& track = it->second.track;
+    track.erase(std::remove_if(track.begin(), track.end(), [&](const auto& e) { return !kept.count(e.first); }),
+                track.end());
+    it = track.empty() ? model->points3d.erase(it) : std::next(it);
+  }
+  return unknown;
+}
+
+Reconstruction ReadMiddleburyCameras(const std::string& path, int width, int height) {
+  std::ifstream in(path);
+  if (!in) RELIGHT_USER_ERROR() << "cannot open Middlebury camera file '" << path << "'";
+  int count = 0;
+  if (!(in >> count) || count <= 0) {
+    RELIGHT_USER_ERROR() << "'" << path << "' does not start with a camera count (Middlebury *_par.txt format)";
+  }
+  Reconstruction model;
+  for (int i = 0; i < count; ++i) {
+    std::string name;
+    double k[9], r[9], t[3];
+    in >> name;
+    for (double& v : k) in >> v;
+    for (double& v : r) in >> v;
+    for (double& v : t) in >> v;
+    if (!in) {
+      RELIGHT_USER_ERROR() << "'" << path << "': camera " << i + 1 << " of " << count
+                           << " is incomplete (expected name, K (9), R (9), t (3))";
+    }
+    const uint32_t id = static_cast<uint32_t>(i + 1);
+    model.cameras[id] = Camera::Pinhole(id, width, height, k[0], k[4], k[2], k[5]);
+    ImageRecord image;
+    image.image_id = id;
+    image.camera_id = id;
+    image.name = name;
+    Eigen::Matrix3d rotation;
+    rotation << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
+    image.cam_from_world_rotation = Eigen::Quaterniond(rotation).normalized();
+    image.cam_from_world_translation = Eigen::Vector3d(t[0], t[1], t[2]);
+    model.images[id] = image;
+  }
+  return model;
+}
+
+void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
+  OrderedJson j;
+  j["format"] = "relight-sfm-summary";
+  j["version"] = 1;
+  j["mode"] = summary.mode;
+  j["num_photos"] = summary.num_photos;
+  j["num_registered"] = summary.num_registered;
+  j["unregistered"] = summary.UnregisteredNames();
+  j["num_points3d"] = summary.num_points3d;
+  j["mean_reprojection_error_px"] = summary.mean_reprojection_error_px;
+  if (summary.mode == "colmap") {
+    j["matcher"] = summary.matcher;
+    j["shared_intrinsics"] = summary.shared_intrinsics;
+    j["refine_intrinsics"] = summary.refine_intrinsics;
+    j["num_models"] = summary.num_models;
+  }
+  const Sim3& t = summary.world_from_colmap;
+  OrderedJson transform;
+  transform["description"] = "x_world = scale * rotation * x_colmap + translation (+Z up: mean camera up)";
+  transform["scale"] = t.scale;
+  transform["rotation"] = {{t.rotation(0, 0), t.rotation(0, 1), t.rotation(0, 2)},
+                           {t.rotation(1, 0), t.rotation(1, 1), t.rotation(1, 2)},
+                           {t.rotation(2, 0), t.rotation(2, 1), t.rotation(2, 2)}};
+  transform["translation"] = {t.translation.x(), t.translation.y(), t.translation.z()};
+  j["world_from_colmap"] = transform;
+  OrderedJson photos = OrderedJson::array();
+  for (const auto& p : summary.photos) {
+    OrderedJson e;
+    e["name"] = p.name;
+    e["colmap_name"] = p.colmap_name;
+    e["registered"] = p.registered;
+    if (p.num_keypoints >= 0) e["num_keypoints"] = p.num_keypoints;
+    if (p.num_matched_photos >= 0) e["num_matched_photos"] = p.num_matched_photos;
+    if (!p.registered) e["reason"] = p.reason;
+    photos.push_back(e);
+  }
+  j["photos"] = photos;
+  OrderedJson steps;
+  for (const auto& [name, seconds] : summary.step_seconds) steps[name] = seconds;
+  j["step_seconds"] = steps;
+  j["seconds"] = summary.seconds;
+  WriteJsonAtomic(path, j);
+}
+
+SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, const std::string& output_dir,
+                  int threads) {
+  Timer timer;
+  const IngestSummary ingest = ReadIngestManifest(ingest_dir);
+  const int n = static_cast<int>(ingest.photos.size());
+  if (n < 3) {
+    RELIGHT_USER_ERROR() << "structure from motion needs at least 3 photos, but " << ingest_dir
+                         << "/manifest.json lists " << n << "; add photos of the object from more viewpoints";
+  }
+  SfmSummary summary;
+  summary.mode = options.mode;
+  summary.num_photos = n;
+  for (const auto& p : ingest.photos) {
+    SfmPhoto s;
+    s.name = p.name;
+    summary.photos.push_back(s);
+  }
+  RLOG_INFO("sfm ({} mode) on {} photos from {}", options.mode, n, ingest_dir);
+  if (options.mode == "colmap") {
+    summary = RunColmapMode(options, ingest_dir, ingest.photos, output_dir, threads, std::move(summary));
+  } else {
+    summary = RunGivenModelMode(options, ingest_dir, ingest.photos, output_dir, std::move(summary));
+  }
+  summary.seconds = timer.Seconds();
+  WriteSfmSummary(summary, JoinPath(output_dir, "sfm_summary.json"));
+  RLOG_INFO("{}", summary.BriefReport());
+  return summary;
+}
+
+}  // namespace relight

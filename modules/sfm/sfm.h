@@ -1,0 +1,88 @@
+// The `sfm` stage: camera poses and intrinsics of the ingested photos.
+//
+// mode=colmap drives the COLMAP CLI step by step (feature_extractor with CPU
+// SIFT, a matcher chosen by collection size, mapper, image_undistorter; see
+// ../shared/COLMAP.md for the measured pitfalls), keeps the largest model and
+// rotates it so the mean camera up direction (−y of the images) is +Z.
+// mode=ground_truth copies <ingest>/ground_truth cameras; mode=model takes a
+// user's COLMAP model. Every mode writes the same outputs (docs/FORMATS.md):
+//   sparse/        COLMAP binary model, world frame, image names = photo names of the ingest manifest
+//   sparse_txt/    the same as text
+//   dense/         COLMAP undistorted workspace (images/, sparse/, stereo/) in the world frame, for MVS
+//   sfm_summary.json  registered / dropped photos and why, reprojection error, world_from_colmap, timings
+//   colmap/        COLMAP's raw mapper models (sparse/N, COLMAP frame) and, with sfm.keep_database, database.db
+//
+// World frame: COLMAP's frame rotated about the origin (no scale, no
+// translation) so that the mean over registered images of the camera up
+// direction −y (in world coordinates −R^T·e_y) becomes +Z; recorded as
+// world_from_colmap. Cameras looking down at an object from around it give
+// the true vertical; a one-sided collection tilted up or down leans by its
+// mean tilt.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "geometry/reconstruction.h"
+#include "ingest/ingest.h"
+#include "sfm/sfm_options.h"
+
+namespace relight {
+
+// What happened to one photo of the collection.
+struct SfmPhoto {
+  std::string name;         // photo name (ingest manifest; image name in sparse/)
+  std::string colmap_name;  // file name COLMAP saw (dense/images/)
+  bool registered = false;
+  int num_keypoints = -1;       // SIFT features (-1: not extracted, e.g. ground_truth mode)
+  int num_matched_photos = -1;  // photos with verified matches (-1: unknown)
+  std::string reason;           // why it is not registered
+};
+
+// Result of the stage (Ceres-style summary).
+struct SfmSummary {
+  std::string mode;
+  std::string matcher;            // matcher used (colmap mode)
+  std::string shared_intrinsics;  // "single" or "per_image" (colmap mode)
+  std::string refine_intrinsics;  // "mapping", "final" or "never" (colmap mode)
+  int num_photos = 0;
+  int num_registered = 0;
+  int num_models = 0;  // reconstructions COLMAP produced (the largest is kept)
+  size_t num_points3d = 0;
+  double mean_reprojection_error_px = 0;
+  Sim3 world_from_colmap;  // applied to COLMAP's frame to get the world frame
+  std::vector<SfmPhoto> photos;
+  std::vector<std::pair<std::string, double>> step_seconds;  // step name -> wall seconds
+  double seconds = 0;
+
+  std::vector<std::string> UnregisteredNames() const;
+  // One paragraph for the log.
+  std::string BriefReport() const;
+};
+
+// Runs the stage on an ingest output folder, writing into `output_dir` (exists).
+// `threads` > 0 limits COLMAP's threads.
+SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, const std::string& output_dir,
+                  int threads = 0);
+
+// The rotation (about the origin) that takes the mean camera up direction
+// (−y of the images, in world coordinates) to +Z. Identity when the cameras
+// disagree so much that the mean vanishes.
+Sim3 UpAlignment(const Reconstruction& reconstruction);
+
+// Fits a model to the ingested photos: images are matched by manifest name,
+// else by the file name in <ingest>/images; they are renamed to the manifest
+// name; cameras are rescaled to the ingested image size. Images not in the
+// manifest are removed and returned.
+std::vector<std::string> ConformToPhotos(const std::vector<IngestedPhoto>& photos, const std::string& where,
+                                         Reconstruction* model);
+
+// Reads the Middlebury camera file (`templeSR_par.txt`: a count line, then per
+// line name, K (9), R (9), t (3), P = K[R t]) as a COLMAP-convention model with
+// PINHOLE cameras of size `width`×`height`.
+Reconstruction ReadMiddleburyCameras(const std::string& path, int width, int height);
+
+// Writes sfm_summary.json.
+void WriteSfmSummary(const SfmSummary& summary, const std::string& path);
+
+}  // namespace relight

@@ -1,0 +1,106 @@
+// Options of the `sfm` stage: camera poses and intrinsics of the ingested
+// photos, in the project's +Z-up world frame (docs/FORMATS.md).
+#pragma once
+
+#include <string>
+
+#include "core/error.h"
+#include "core/options.h"
+#include "core/stage.h"
+
+namespace relight {
+
+inline const StageInfo kSfmStage{
+    "sfm", "Structure from motion with COLMAP: camera poses and intrinsics in a +Z-up world frame", 1};
+
+struct SfmOptions {
+  std::string mode = "colmap";  // colmap: run COLMAP; ground_truth: <ingest>/ground_truth cameras; model: `model`.
+  std::string model;            // COLMAP model folder (cameras/images/points3D .bin or .txt) for mode=model.
+  std::string camera_model = "SIMPLE_RADIAL";  // COLMAP camera model of new cameras.
+  std::string shared_intrinsics = "auto";      // auto | single | per_image: one camera for all photos or one each.
+  bool use_exif_focal = true;                  // Start from the EXIF focal length (ingest's focal_px) as a prior.
+  std::string matcher = "auto";                // auto | exhaustive | sequential | spatial | vocab_tree.
+  int exhaustive_max_photos = 100;             // auto: exhaustive matching up to this many photos.
+  std::string vocab_tree;                      // Vocabulary-tree file (COLMAP's FLANN format) for vocab_tree matching.
+  int sequential_overlap = 10;                 // Neighbours each photo is matched with by the sequential matcher.
+  int max_image_size = 1600;                // Longest side SIFT sees (pixels); larger photos are downscaled for SIFT.
+  int max_num_features = 8192;              // SIFT features per photo.
+  int min_model_size = 3;                   // Smallest reconstruction COLMAP keeps (photos).
+  int abs_pose_min_num_inliers = 15;        // Inliers needed to register a photo (COLMAP default 30; see COLMAP.md).
+  double abs_pose_min_inlier_ratio = 0.25;  // Inlier ratio needed to register a photo.
+  std::string refine_intrinsics =
+      "auto";                           // When focal length and distortion are refined: auto | mapping | final | never.
+  bool refine_principal_point = false;  // Bundle adjustment refines the principal point (unstable on few photos).
+  int min_registered = 3;               // Fewer registered photos than this is an error.
+  bool align_up = true;                 // Rotate so that the mean camera up (-y of the images) is +Z.
+  int undistort_max_image_size = 0;     // Longest side of dense/ images; 0 keeps the ingested size.
+  int seed = 0;                         // COLMAP's random seed (runs still vary slightly with threads).
+  bool keep_database = false;           // Keep colmap/database.db (features, matches) for debugging.
+
+  void Declare(OptionTable* t) {
+    t->Add("mode", &mode,
+           "colmap: reconstruct with COLMAP; ground_truth: copy the cameras of <ingest>/ground_truth; "
+           "model: use the COLMAP model folder given by sfm.model.")
+        .Choices({"colmap", "ground_truth", "model"});
+    t->Add("model", &model, "COLMAP model folder (cameras/images/points3D as .bin or .txt) for sfm.mode=model.")
+        .InputDir();
+    t->Add("camera_model", &camera_model,
+           "COLMAP camera model; SIMPLE_RADIAL is the most stable for few photos, OPENCV fits wide lenses.")
+        .Choices({"SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV"});
+    t->Add("shared_intrinsics", &shared_intrinsics,
+           "single: one camera for all photos (same camera and size: more stable); per_image: one each "
+           "(Internet photos); auto: single when all photos share size and EXIF camera.")
+        .Choices({"auto", "single", "per_image"});
+    t->Add("use_exif_focal", &use_exif_focal, "Initialise the focal length from EXIF (ingest's focal_px) as a prior.");
+    t->Add("matcher", &matcher,
+           "auto: exhaustive up to sfm.exhaustive_max_photos, else vocab_tree when sfm.vocab_tree is set, else "
+           "exhaustive with a warning; sequential suits video frames; spatial needs GPS in EXIF.")
+        .Choices({"auto", "exhaustive", "sequential", "spatial", "vocab_tree"});
+    t->Add("exhaustive_max_photos", &exhaustive_max_photos,
+           "auto matcher: exhaustive matching (cost grows with the square of the photos) up to this many photos.")
+        .Min(3);
+    t->Add("vocab_tree", &vocab_tree, "Vocabulary-tree file for vocab_tree matching (COLMAP's download page).")
+        .InputFile();
+    t->Add("sequential_overlap", &sequential_overlap, "Sequential matcher: neighbours matched per photo.").Min(1);
+    t->Add("max_image_size", &max_image_size,
+           "Longest side in pixels SIFT works on; larger costs memory and time, smaller loses features.")
+        .Min(100);
+    t->Add("max_num_features", &max_num_features, "SIFT features per photo.").Min(100);
+    t->Add("min_model_size", &min_model_size, "Smallest reconstruction (photos) COLMAP keeps.").Min(2);
+    t->Add("abs_pose_min_num_inliers", &abs_pose_min_num_inliers,
+           "Inlier matches needed to register a photo; lower registers weakly linked photos, at some risk.")
+        .Min(6);
+    t->Add("abs_pose_min_inlier_ratio", &abs_pose_min_inlier_ratio, "Inlier ratio needed to register a photo.")
+        .Range(0, 1);
+    t->Add("refine_intrinsics", &refine_intrinsics,
+           "mapping: refine focal length and distortion during incremental mapping (COLMAP's default; needed "
+           "without EXIF); final: keep the EXIF focal fixed while mapping (robust on scenes dominated by a "
+           "plane), then refine in one final bundle adjustment; never: keep them; auto: final when every photo "
+           "has an EXIF focal length, else mapping.")
+        .Choices({"auto", "mapping", "final", "never"});
+    t->Add("refine_principal_point", &refine_principal_point,
+           "Let bundle adjustment refine the principal point (unstable with few photos).");
+    t->Add("min_registered", &min_registered, "Fewer registered photos than this is an error.").Min(2);
+    t->Add("align_up", &align_up,
+           "Rotate the COLMAP frame so the mean camera up (-y of the images) is +Z (colmap and model modes).");
+    t->Add("undistort_max_image_size", &undistort_max_image_size,
+           "Longest side of the undistorted dense/ images in pixels; 0 keeps the ingested size.")
+        .Min(0);
+    t->Add("seed", &seed, "COLMAP's random seed.").Min(0);
+    t->Add("keep_database", &keep_database, "Keep colmap/database.db (features and matches) for debugging.").NotInKey();
+  }
+  void Check() const {
+    if (mode == "model" && model.empty()) {
+      RELIGHT_USER_ERROR() << "sfm.mode is 'model' but sfm.model is empty: set it to a COLMAP model folder";
+    }
+    if (mode != "model" && !model.empty()) {
+      RELIGHT_USER_ERROR() << "sfm.model is set but sfm.mode is '" << mode
+                           << "': set sfm.mode: model or remove sfm.model";
+    }
+    if (matcher == "vocab_tree" && vocab_tree.empty()) {
+      RELIGHT_USER_ERROR() << "sfm.matcher is vocab_tree but sfm.vocab_tree is empty: set it to a vocabulary-tree file";
+    }
+  }
+};
+
+}  // namespace relight
