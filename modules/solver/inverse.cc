@@ -147,7 +147,8 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec) {
   const size_t nv = ctx.problem.mesh.num_vertices();
   const int num_photos = static_cast<int>(obs.num_photos);
   const KnownQuantities* known = ctx.known;
-  const std::vector<BrdfLobe> basis = ParseLobeSpecs(o.basis);
+  const std::vector<BrdfLobe> basis =
+      known != nullptr && known->has_reflectance ? known->reflectance.basis : ParseLobeSpecs(o.basis);
   AlternationResult result;
   LightingState& lighting = result.lighting;
   lighting.basis = o.lighting_basis;
@@ -287,7 +288,9 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   if (obs.records.empty()) {
     RELIGHT_USER_ERROR() << "no observations: no vertex of the mesh is seen in any photo; check the observe stage";
   }
-  const std::vector<BrdfLobe> basis = ParseLobeSpecs(o.basis);
+  // With the reflectance known (fixed or as a warm start), rows use its basis.
+  const std::vector<BrdfLobe> basis =
+      known != nullptr && known->has_reflectance ? known->reflectance.basis : ParseLobeSpecs(o.basis);
 
   // Transport rows.
   Timer step;

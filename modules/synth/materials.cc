@@ -51,6 +51,14 @@ ReflectanceModel BuiltinObjectMaterials(int num_materials) {
   return PruneUnusedLobes(model);
 }
 
+ReflectanceModel BuiltinPrimaryMaterials() {
+  using V = Eigen::Vector3d;
+  ReflectanceModel model;
+  model.basis = {BrdfLobe{}};
+  model.materials = {{"red", {V(0.8, 0.0, 0.0)}}, {"green", {V(0.0, 0.8, 0.0)}}, {"blue", {V(0.0, 0.0, 0.8)}}};
+  return model;
+}
+
 ReflectanceModel BuiltinGroundMaterials() {
   using V = Eigen::Vector3d;
   ReflectanceModel model;
@@ -95,8 +103,29 @@ void AssignMaterialWeights(const ReflectanceModel& model, const WeightPattern& p
       w[m1][v] += static_cast<float>(t);
       w[m2][v] += static_cast<float>(1 - t);
     }
+  } else if (pattern.kind == "mosaic") {
+    // Per-vertex colours for a model of three primaries (red, green, blue): a random
+    // colour per Voronoi cell (crisp edges and corners) modulated by coloured
+    // fractal noise (detail at every scale) -- distinctive, non-repeating texture
+    // that structure from motion matches reliably, unlike the few-material patterns.
+    if (num_materials != 3) {
+      RELIGHT_USER_ERROR() << "weight pattern 'mosaic' needs exactly three materials (primaries), got "
+                           << num_materials;
+    }
+    std::vector<GradientNoise> fields;
+    for (int m = 0; m < 3; ++m) fields.emplace_back(MixSeed(pattern.seed, uint64_t(100 + m)));
+    for (size_t v = 0; v < n; ++v) {
+      const Eigen::Vector3d p = mesh->vertices[v].cast<double>() * pattern.frequency;
+      const CellSample cell = CellularNoise(p, pattern.seed);
+      for (int m = 0; m < 3; ++m) {
+        const uint64_t h = MixSeed(cell.id1, uint64_t(m));
+        const double cell_colour = double(h % 1000003) / 1000003.0;
+        const double detail = fields[m].Fractal(p * 4.0, pattern.octaves);
+        w[m][v] = static_cast<float>(std::clamp(0.1 + 0.75 * cell_colour + 0.25 * detail, 0.02, 1.0));
+      }
+    }
   } else {
-    RELIGHT_USER_ERROR() << "unknown weight pattern '" << pattern.kind << "'; allowed: noise, voronoi, single";
+    RELIGHT_USER_ERROR() << "unknown weight pattern '" << pattern.kind << "'; allowed: noise, voronoi, mosaic, single";
   }
   for (int m = 0; m < num_materials; ++m) mesh->Property("w" + std::to_string(m)) = std::move(w[m]);
   // Remove stale weights of a previous, larger model.

@@ -19,10 +19,14 @@ namespace relight {
 ReflectanceModel BuiltinObjectMaterials(int num_materials);
 // Three Lambertian materials of the ground and blockers: pale stone, dark stone, sand.
 ReflectanceModel BuiltinGroundMaterials();
+// Three Lambertian primaries (albedo 0.8 in one channel each): with the "mosaic"
+// pattern, a vertex's weights are its colour.
+ReflectanceModel BuiltinPrimaryMaterials();
 
 // How per-vertex weights are drawn.
 struct WeightPattern {
-  std::string kind = "noise";  // "noise" (softmax of fractal noise fields), "voronoi" (cells), "single" (material 0)
+  std::string kind = "noise";  // "noise" (softmax of fractal noise fields), "voronoi" (cells), "mosaic" (colour
+                               // per cell plus fractal detail, three primary materials), "single" (material 0)
   double frequency = 5.0;      // pattern cycles per scene unit, coarsest octave / cell density
   int octaves = 4;             // fractal octaves ("noise")
   double sharpness = 40.0;     // softmax gain: larger gives crisper region borders

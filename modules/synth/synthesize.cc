@@ -146,15 +146,16 @@ SyntheticScene BuildSyntheticScene(const SynthesizeOptions& o) {
       s.occluders.Append(MakeBox(c - Eigen::Vector3d(half, half, 0),
                                  c + Eigen::Vector3d(half, half, o.blocker_height * o.object_size), 16));
     }
-    s.occluder_reflectance = o.ground_materials.empty() ? BuiltinGroundMaterials()
-                                                        : ReadMaterialsFile(o.ground_materials, "ground_materials");
+    s.occluder_reflectance = !o.ground_materials.empty() ? ReadMaterialsFile(o.ground_materials, "ground_materials")
+                             : o.ground_pattern == "mosaic" ? BuiltinPrimaryMaterials()
+                                                            : BuiltinGroundMaterials();
     if (s.occluder_reflectance.materials.empty() || s.occluder_reflectance.basis.empty() ||
         int(s.occluder_reflectance.basis.size()) > kMaxLobes) {
       RELIGHT_USER_ERROR() << "synthesize.ground_materials: '" << o.ground_materials << "' needs 1 to " << kMaxLobes
                            << " basis BRDFs and at least one material";
     }
     WeightPattern ground_pattern = pattern;
-    ground_pattern.kind = "noise";
+    ground_pattern.kind = o.ground_pattern;
     ground_pattern.frequency = o.ground_pattern_frequency / o.object_size;
     ground_pattern.seed = MixSeed(uint64_t(o.seed), kStreamGroundPattern);
     AssignMaterialWeights(s.occluder_reflectance, ground_pattern, &s.occluders);
@@ -336,7 +337,8 @@ SynthesizeSummary RunSynthesize(const SynthesizeOptions& o, const std::string& o
     Progress progress("render photos", tiles);
     for (int p = 0; p < o.num_photos; ++p) {
       const SyntheticView& view = views[p];
-      const int li = p % num_lightings;
+      // Photos are placed in azimuth order; "blocks" gives neighbouring views the same light.
+      const int li = o.lighting_order == "blocks" ? p * num_lightings / o.num_photos : p % num_lightings;
       std::unique_ptr<Scene> transient_scene;
       if (transient[p]) {
         Pcg32 rng(uint64_t(o.seed), kStreamTransient + p);

@@ -37,6 +37,7 @@ struct SynthesizeOptions {
   double ground_size = 6.0;               // Side of the square ground plane [object sizes].
   int ground_cells = 256;                 // Grid cells per side of the ground (its texture lives on vertices).
   double ground_pattern_frequency = 3.0;  // Ground pattern cycles per object size.
+  std::string ground_pattern = "mosaic";  // Ground texture: mosaic (distinct colours, SfM-friendly) or noise (stone).
   std::string ground_materials;           // materials.json of the ground and blockers; empty: built-in stone and sand.
   int num_blockers = 0;                   // Boxes standing beside the object that cast shadows on it.
   double blocker_height = 1.0;            // Height of a blocker [object sizes].
@@ -46,6 +47,7 @@ struct SynthesizeOptions {
   std::vector<std::string> envmaps;   // Lat-long HDR/EXR environment maps; empty: procedural sky only.
   double sky_fraction = 0.5;          // Fraction of lighting conditions from the sun-and-sky model (1 without envmaps).
   int num_lightings = 0;              // Distinct lighting conditions, assigned to photos in turn; 0: one per photo.
+  std::string lighting_order = "interleaved";  // Which photos share a lighting: interleaved (p mod L) or blocks.
   double env_rotation_deg = 360;      // Env-map rotation about +Z drawn uniformly from [0, this) [deg].
   double intensity_min = 0.5;         // Light intensity scale, log-uniform in [intensity_min, intensity_max].
   double intensity_max = 2.0;         // Upper end of the intensity scale.
@@ -125,6 +127,10 @@ struct SynthesizeOptions {
     t->Add("ground_cells", &ground_cells, "Grid cells per side of the ground (texture lives on vertices).")
         .Range(1, 4096);
     t->Add("ground_pattern_frequency", &ground_pattern_frequency, "Ground pattern cycles per object size.").Min(1e-3);
+    t->Add("ground_pattern", &ground_pattern,
+           "Ground texture: mosaic (a random colour per cell with fractal detail, over three primary materials: "
+           "distinctive features for structure from motion) or noise (the stone materials' fractal pattern).")
+        .Choices({"mosaic", "noise"});
     t->Add("ground_materials", &ground_materials,
            "materials.json of the ground and blockers; empty: built-in pale stone, dark stone, sand (Lambertian).")
         .InputFile();
@@ -141,6 +147,10 @@ struct SynthesizeOptions {
     t->Add("num_lightings", &num_lightings,
            "Distinct lighting conditions, assigned to the photos in turn; 0: one per photo.")
         .Min(0);
+    t->Add("lighting_order", &lighting_order,
+           "With fewer lightings than photos: interleaved (photo p gets lighting p mod L, neighbours differ) or "
+           "blocks (runs of neighbouring views share one lighting, so structure from motion can chain them).")
+        .Choices({"interleaved", "blocks"});
     t->Add("env_rotation_deg", &env_rotation_deg, "Env-map rotation about +Z, uniform in [0, this) [deg].")
         .Range(0, 360);
     t->Add("intensity_min", &intensity_min, "Light intensity scale, log-uniform in [intensity_min, intensity_max].")

@@ -1,0 +1,785 @@
+#include "evaluate/evaluate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "core/config.h"
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "core/timer.h"
+#include "datasets/diligent.h"
+#include "datasets/light_evaluation.h"
+#include "evaluate/envmap_metrics.h"
+#include "evaluate/image_metrics.h"
+#include "evaluate/leave_one_out.h"
+#include "evaluate/surface_distance.h"
+#include "geometry/mesh_io.h"
+#include "geometry/raycaster.h"
+#include "observe/observations.h"
+#include "relight/display.h"
+#include "relight/ground_truth_frame.h"
+#include "relight/relight.h"
+#include "render/render_view.h"
+#include "render/rng.h"
+#include "sphere/envmap.h"
+
+namespace relight {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string Stem(const std::string& name) { return fs::path(name).stem().string(); }
+bool IsFile(const std::string& path) { return !path.empty() && fs::is_regular_file(path); }
+OrderedJson Vec(const Eigen::Vector3d& v) { return OrderedJson::array({v.x(), v.y(), v.z()}); }
+
+double Mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? 0.0 : s / v.size();
+}
+double Median(std::vector<double> v) { return v.empty() ? 0.0 : Percentile(&v, 50); }
+
+// Reads a stage's resolved options from <dir>/config.yaml (written by the orchestrator); false when absent.
+template <typename Options>
+bool ReadResolvedOptions(const std::string& stage_dir, const std::string& section, Options* options) {
+  const std::string path = JoinPath(stage_dir, "config.yaml");
+  if (stage_dir.empty() || !IsFile(path)) return false;
+  OptionTable table = MakeOptionTable(section, options);
+  ConfigDocument::Load(path).Apply(&table);
+  return true;
+}
+
+// Which vertices photo `photo` observes (1 = observed), one entry per vertex.
+std::vector<char> ObservedVertices(const ObservationSet& obs, uint32_t photo) {
+  std::vector<char> observed(obs.num_vertices, 0);
+  for (const auto& o : obs.records)
+    if (o.photo == photo) observed[o.vertex] = 1;
+  return observed;
+}
+
+// 1 where the pixel-centre ray first hits the object (geometry 0) on a face whose three vertices the photo
+// observes.
+Image ObservedPixelMask(const RayCaster& caster, const std::vector<char>& observed, const Camera& camera,
+                        const ImageRecord& pose) {
+  const TriangleMesh& mesh = caster.mesh(0);
+  const std::vector<RayHit> hits = CastPixelCentres(caster, camera, pose);
+  Image mask(camera.width, camera.height, 1);
+  for (int y = 0; y < camera.height; ++y)
+    for (int x = 0; x < camera.width; ++x) {
+      const RayHit& h = hits[size_t(y) * camera.width + x];
+      if (!h.hit || h.geom_id != 0) continue;
+      const Eigen::Vector3i& f = mesh.faces[h.prim_id];
+      if (observed[f[0]] && observed[f[1]] && observed[f[2]]) mask.at(x, y) = 1;
+    }
+  return mask;
+}
+
+// The linear photo (and its confidence) at the render's size.
+struct PhotoReference {
+  Image linear;
+  Image confidence;  // empty when linearize wrote none
+};
+PhotoReference LoadPhotoReference(const std::string& linearize_dir, const std::string& stem, int width, int height) {
+  PhotoReference ref;
+  const std::string linear = JoinPath(linearize_dir, "linear/" + stem + ".exr");
+  if (!IsFile(linear)) {
+    RELIGHT_USER_ERROR() << "'" << linear << "' is missing: the linearize stage has no linear image of photo '" << stem
+                         << "'; rerun from linearize";
+  }
+  ref.linear = ReadImage(linear);
+  const std::string conf = JoinPath(linearize_dir, "confidence/" + stem + ".exr");
+  if (IsFile(conf)) ref.confidence = ReadImage(conf);
+  if (ref.linear.width != width || ref.linear.height != height) {
+    const double sx = double(width) / ref.linear.width, sy = double(height) / ref.linear.height;
+    if (std::abs(sx - sy) > 0.02 * sx) {
+      RELIGHT_USER_ERROR() << "'" << linear << "' is " << ref.linear.width << "x" << ref.linear.height
+                           << " but the re-rendering is " << width << "x" << height
+                           << " (another aspect ratio); rerun from the relight stage";
+    }
+    ref.linear = ResizeImage(ref.linear, width, height);
+    if (!ref.confidence.empty()) ref.confidence = ResizeImage(ref.confidence, width, height);
+  }
+  return ref;
+}
+
+// Observed-pixel mask combined with the photo's confidence, eroded.
+Image ComparisonMask(const Image& observed_mask, const PhotoReference& ref, const EvaluateOptions& o) {
+  Image mask = observed_mask;
+  if (!ref.confidence.empty()) {
+    for (int y = 0; y < mask.height; ++y)
+      for (int x = 0; x < mask.width; ++x)
+        if (ref.confidence.at(x, y) < o.min_confidence) mask.at(x, y) = 0;
+  }
+  return ErodeMask(mask, o.mask_erosion_px);
+}
+
+ImageCompareOptions CompareOptions(const EvaluateOptions& o) {
+  ImageCompareOptions c;
+  c.peak_percentile = o.peak_percentile;
+  c.clip_to_peak = o.clip_to_peak;
+  return c;
+}
+
+OrderedJson ComparisonJson(const ImageComparison& c) {
+  OrderedJson j;
+  j["psnr_db"] = c.psnr_db;
+  j["rmse"] = c.rmse;
+  j["relative_rmse"] = c.relative_rmse;
+  j["peak"] = c.peak;
+  j["scale"] = Vec(c.scale);
+  j["pixels"] = c.pixels;
+  return j;
+}
+
+// Reference | scaled estimate | heat map, the first two at the reference's exposure.
+void WriteComparisonFigures(const Image& ref, const Image& est, const Image& mask, const ImageComparison& c,
+                            const EvaluateOptions& o, const std::string& ref_png, const std::string& est_png,
+                            const std::string& error_png) {
+  const double exposure = PercentileExposure(ref, &mask, 99);
+  WritePng(ref_png, ToneMapSrgb(ref, exposure));
+  WritePng(est_png, ToneMapSrgb(ScaleChannels(est, c.scale), exposure));
+  WritePng(error_png, HeatMap(RelativeErrorImage(ref, est, c.scale, c.peak), o.heatmap_max, &mask));
+}
+
+// Records a metric that cannot be computed.
+void NotAvailable(OrderedJson* m, const std::string& key, const std::string& reason) {
+  (*m)[key] = nullptr;
+  (*m)["not_available"][key] = reason;
+}
+
+}  // namespace
+
+const std::vector<std::string>& HeadlineMetricKeys() {
+  static const std::vector<std::string> keys = {"relight_psnr_db",  "rerender_psnr_db",    "rerender_rmse",
+                                                "envmap_rel_error", "light_dir_error_deg", "albedo_psnr_db",
+                                                "loo_psnr_db"};
+  return keys;
+}
+
+std::string EvaluateSummary::BriefReport() const {
+  std::ostringstream s;
+  bool first = true;
+  for (const auto& key : HeadlineMetricKeys()) {
+    if (!metrics.contains(key) || metrics[key].is_null()) continue;
+    s << (first ? "" : ", ") << key << " " << metrics[key].get<double>();
+    first = false;
+  }
+  if (first) s << "no metric could be computed";
+  s << "; " << Progress::FormatSeconds(seconds);
+  return s.str();
+}
+
+OrderedJson CollectStageSeconds(const std::map<std::string, std::string>& inputs) {
+  std::map<std::string, double> seconds;
+  std::vector<std::pair<std::string, std::string>> queue(inputs.begin(), inputs.end());
+  std::set<std::string> seen;
+  while (!queue.empty()) {
+    const auto [stage, dir] = queue.back();
+    queue.pop_back();
+    if (!seen.insert(stage).second) continue;
+    const std::string status = JoinPath(dir, "status.json");
+    if (!IsFile(status)) continue;
+    const Json j = ReadJsonFile(status);
+    seconds[stage] = j.value("seconds", 0.0);
+    if (j.contains("upstream") && j["upstream"].is_object()) {
+      const fs::path cache = fs::path(dir).parent_path().parent_path();  // <workspace>/cache
+      for (const auto& [up, key] : j["upstream"].items()) {
+        const std::string up_dir = (cache / up / key.get<std::string>()).string();
+        if (!seen.count(up) && fs::is_directory(up_dir)) queue.emplace_back(up, up_dir);
+      }
+    }
+  }
+  // Pipeline order for readability.
+  static const std::vector<std::string> order = {"synthesize", "ingest",  "sfm",     "mvs",     "mesh",     "linearize",
+                                                 "visibility", "observe", "inverse", "relight", "evaluate", "report"};
+  OrderedJson out = OrderedJson::object();
+  for (const auto& s : order)
+    if (seconds.count(s)) out[s] = seconds[s];
+  for (const auto& [s, v] : seconds)
+    if (!out.contains(s)) out[s] = v;
+  return out;
+}
+
+EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, const std::string& output_dir) {
+  o.Check();
+  Timer total;
+  EvaluateSummary summary;
+  OrderedJson& m = summary.metrics;
+  OrderedJson& fig = summary.figures;
+  m["format"] = "relight-metrics";
+  m["version"] = 1;
+  m["definitions"] = "docs/METRICS.md";
+  for (const auto& key : HeadlineMetricKeys()) m[key] = nullptr;
+  m["not_available"] = OrderedJson::object();
+  fig["format"] = "relight-figures";
+  fig["version"] = 1;
+  fig["heatmap_max"] = o.heatmap_max;
+  const ImageCompareOptions compare = CompareOptions(o);
+  for (const char* sub : {"rerender", "heldout", "envmaps", "albedo", "loo"})
+    EnsureDir(JoinPath(output_dir, std::string("figures/") + sub));
+
+  const std::string gt = in.ingest_dir.empty() ? "" : JoinPath(in.ingest_dir, "ground_truth");
+  const bool has_gt = !gt.empty() && fs::is_directory(gt);
+  GroundTruthFrame frame;
+  if (has_gt) frame = RelateToGroundTruth(in.sfm_dir, gt);
+  m["ground_truth"] = has_gt;
+  m["frame"] = {{"method", frame.available ? frame.method : "none"}, {"reason", frame.reason}};
+  if (frame.available && !frame.IsIdentity()) {
+    const Sim3& t = frame.truth_from_model;
+    m["frame"]["truth_from_model"] = {
+        {"scale", t.scale},
+        {"rotation",
+         {t.rotation(0, 0), t.rotation(0, 1), t.rotation(0, 2), t.rotation(1, 0), t.rotation(1, 1), t.rotation(1, 2),
+          t.rotation(2, 0), t.rotation(2, 1), t.rotation(2, 2)}},
+        {"translation", Vec(t.translation)}};
+  }
+
+  // Shared inputs.
+  std::vector<RenderRecord> renders;
+  if (!in.relight_dir.empty()) renders = ReadRenderIndex(in.relight_dir);
+  ObservationSet observations;
+  std::vector<ObservedPhoto> photos;
+  if (!in.observe_dir.empty()) {
+    observations = ReadObservations(JoinPath(in.observe_dir, "observations.bin"));
+    photos = ReadObservedPhotos(JoinPath(in.observe_dir, "photos.json"));
+  }
+  std::map<std::string, uint32_t> photo_index;
+  for (const auto& p : photos) photo_index[p.name] = p.index;
+  TriangleMesh mesh, occluders;
+  if (!in.mesh_dir.empty()) {
+    mesh = ReadMesh(JoinPath(in.mesh_dir, "mesh.ply"));
+    if (IsFile(JoinPath(in.mesh_dir, "occluders.ply"))) occluders = ReadMesh(JoinPath(in.mesh_dir, "occluders.ply"));
+  }
+  std::unique_ptr<RayCaster> caster;
+  if (!mesh.empty()) {
+    std::vector<const TriangleMesh*> meshes{&mesh};
+    if (!occluders.empty()) meshes.push_back(&occluders);
+    caster = std::make_unique<RayCaster>(meshes);
+  }
+
+  // --- Re-renderings of the input photos.
+  {
+    OrderedJson list = OrderedJson::array();
+    fig["rerender"] = OrderedJson::array();
+    std::vector<double> psnr, rel;
+    std::string reason;
+    if (in.relight_dir.empty())
+      reason = "the relight stage did not run";
+    else if (in.linearize_dir.empty() || in.observe_dir.empty())
+      reason = "the linearize or observe stage did not run";
+    else if (!caster)
+      reason = "the mesh stage did not run";
+    if (reason.empty()) {
+      int count = 0;
+      for (const auto& r : renders) count += r.kind == "rerender";
+      if (count == 0) reason = "the relight stage rendered no input photo (relight.rerender is off)";
+      Progress progress("score re-renderings", std::max(1, count));
+      for (const auto& r : renders) {
+        if (r.kind != "rerender") continue;
+        auto it = photo_index.find(r.view);
+        if (it == photo_index.end() || mesh.num_vertices() != observations.num_vertices) {
+          RELIGHT_USER_ERROR() << "photo '" << r.view << "' was re-rendered but '"
+                               << JoinPath(in.observe_dir, "photos.json")
+                               << "' does not list it (or the mesh and observations disagree); rerun from observe";
+        }
+        const Image est = ReadImage(JoinPath(in.relight_dir, r.exr));
+        const PhotoReference ref = LoadPhotoReference(in.linearize_dir, r.name, est.width, est.height);
+        const Image mask = ComparisonMask(
+            ObservedPixelMask(*caster, ObservedVertices(observations, it->second), r.camera.camera, r.camera.pose), ref,
+            o);
+        OrderedJson e;
+        e["name"] = r.view;
+        if (CountMask(mask) == 0) {
+          e["psnr_db"] = nullptr;
+          e["reason"] = "no observed, unclipped pixel";
+          list.push_back(e);
+          progress.Advance();
+          continue;
+        }
+        const ImageComparison c = CompareScaleInvariant(ref.linear, est, mask, compare, r.view);
+        e.update(ComparisonJson(c));
+        list.push_back(e);
+        psnr.push_back(c.psnr_db);
+        rel.push_back(c.relative_rmse);
+        const std::string base = "figures/rerender/" + r.name;
+        WriteComparisonFigures(ref.linear, est, mask, c, o, JoinPath(output_dir, base + "_photo.png"),
+                               JoinPath(output_dir, base + "_rerender.png"), JoinPath(output_dir, base + "_error.png"));
+        fig["rerender"].push_back({{"name", r.view},
+                                   {"photo", base + "_photo.png"},
+                                   {"rerender", base + "_rerender.png"},
+                                   {"error", base + "_error.png"},
+                                   {"psnr_db", c.psnr_db}});
+        progress.Advance();
+      }
+      if (psnr.empty() && reason.empty()) reason = "no re-rendered photo has an observed, unclipped pixel";
+    }
+    m["rerender"] = {{"photos", list}, {"scored", psnr.size()}};
+    if (psnr.empty()) {
+      NotAvailable(&m, "rerender_psnr_db", reason);
+      NotAvailable(&m, "rerender_rmse", reason);
+    } else {
+      m["rerender_psnr_db"] = Mean(psnr);
+      m["rerender_rmse"] = Mean(rel);
+      m["rerender"]["median_psnr_db"] = Median(psnr);
+      m["rerender"]["min_psnr_db"] = *std::min_element(psnr.begin(), psnr.end());
+    }
+  }
+
+  // --- Held-out views under held-out maps.
+  {
+    const std::string dir = JoinPath(gt, "relight");
+    std::string reason;
+    if (!has_gt)
+      reason = "no ground truth";
+    else if (!IsFile(JoinPath(dir, "index.json")))
+      reason = "the ground truth has no relight/index.json";
+    else if (in.relight_dir.empty())
+      reason = "the relight stage did not run";
+    std::vector<double> psnr, rel;
+    OrderedJson list = OrderedJson::array();
+    fig["heldout"] = OrderedJson::array();
+    if (reason.empty()) {
+      const Json index = ReadJsonFile(JoinPath(dir, "index.json"));
+      std::map<std::string, const RenderRecord*> by_name;
+      for (const auto& r : renders)
+        if (r.kind == "heldout") by_name[r.name] = &r;
+      for (const auto& e : index.at("renders")) {
+        const std::string view = e.at("view").get<std::string>(), env = e.at("envmap").get<std::string>();
+        const std::string name = view + "__" + env;
+        auto it = by_name.find(name);
+        if (it == by_name.end()) continue;
+        const Image ref = ReadImage(JoinPath(dir, e.at("image").get<std::string>()));
+        const Image est = ReadImage(JoinPath(in.relight_dir, it->second->exr));
+        const Image mask = ErodeMask(ReadMask(JoinPath(dir, e.at("mask").get<std::string>())), o.mask_erosion_px);
+        OrderedJson j;
+        j["name"] = name;
+        j["view"] = view;
+        j["envmap"] = env;
+        if (CountMask(mask) == 0) {
+          j["psnr_db"] = nullptr;
+          j["reason"] = "empty object mask";
+          list.push_back(j);
+          continue;
+        }
+        const ImageComparison c = CompareScaleInvariant(ref, est, mask, compare, name);
+        j.update(ComparisonJson(c));
+        list.push_back(j);
+        psnr.push_back(c.psnr_db);
+        rel.push_back(c.relative_rmse);
+        const std::string base = "figures/heldout/" + name;
+        WriteComparisonFigures(ref, est, mask, c, o, JoinPath(output_dir, base + "_reference.png"),
+                               JoinPath(output_dir, base + "_relit.png"), JoinPath(output_dir, base + "_error.png"));
+        fig["heldout"].push_back({{"name", name},
+                                  {"reference", base + "_reference.png"},
+                                  {"relit", base + "_relit.png"},
+                                  {"error", base + "_error.png"},
+                                  {"psnr_db", c.psnr_db}});
+      }
+      if (psnr.empty())
+        reason =
+            "the relight stage rendered none of the held-out views (relight.heldout off, or the "
+            "frames could not be related: see relight_summary.json notes)";
+    }
+    m["heldout"] = {{"renders", list}};
+    if (psnr.empty()) {
+      NotAvailable(&m, "relight_psnr_db", reason);
+    } else {
+      m["relight_psnr_db"] = Mean(psnr);
+      m["heldout"]["relative_rmse"] = Mean(rel);
+    }
+  }
+
+  // --- Environment maps: recovered against true, and brightest directions.
+  {
+    fig["envmaps"] = OrderedJson::array();
+    const std::string lighting_path = in.inverse_dir.empty() ? "" : JoinPath(in.inverse_dir, "lighting.json");
+    const bool has_truth = has_gt && IsFile(JoinPath(gt, "lighting.json"));
+    std::string reason;
+    if (!IsFile(lighting_path))
+      reason = "the inverse stage did not run";
+    else if (!has_truth)
+      reason = has_gt ? "the ground truth has no lighting.json" : "no ground truth";
+    else if (!frame.available)
+      reason = "the model's frame could not be related to the ground truth: " + frame.reason;
+    bool upper = o.envmap_region == "upper";
+    if (o.envmap_region == "auto") upper = has_gt && IsFile(JoinPath(gt, "occluders.ply"));
+    std::map<std::string, Json> truth_by_name;
+    if (has_truth) {
+      const Json truth_lighting = ReadJsonFile(JoinPath(gt, "lighting.json"));
+      for (const auto& p : truth_lighting.at("photos")) truth_by_name[p.at("name").get<std::string>()] = p;
+    }
+    OrderedJson list = OrderedJson::array();
+    std::vector<double> rel, angle_sky, angle_all;
+    if (IsFile(lighting_path)) {
+      const Json lighting = ReadJsonFile(lighting_path);
+      for (const auto& p : lighting.at("photos")) {
+        const std::string name = p.at("name").get<std::string>(), stem = Stem(name);
+        const Image oct = ReadImage(JoinPath(in.inverse_dir, p.at("envmap_oct").get<std::string>()));
+        const int n = oct.width;
+        const EnvMap recovered = EnvMap::FromOctahedral(oct);
+        const std::string base = "figures/envmaps/" + stem;
+        OrderedJson f{{"name", name}};
+        auto it = truth_by_name.find(name);
+        if (reason.empty() && it != truth_by_name.end()) {
+          const EnvMap truth = EnvMap::Load(JoinPath(gt, it->second.at("envmap_latlong").get<std::string>()));
+          const EnvMap recovered_truth_frame = frame.IsIdentity() ? recovered : frame.EnvToTruth(recovered);
+          const Image est = frame.IsIdentity() ? oct : recovered_truth_frame.ToOctahedral(n);
+          const Image tru = truth.ToOctahedral(n);
+          const EnvMapComparison c = CompareEnvMaps(est, tru, upper);
+          const Eigen::Vector3d dir_est = BrightestLobeDirection(est);
+          const Json& env = it->second.contains("environment") ? it->second.at("environment") : Json::object();
+          const bool sky = env.value("source", "") == "sky" && env.contains("sun_dir_world");
+          Eigen::Vector3d dir_true = BrightestLobeDirection(tru);
+          if (sky) {
+            const auto s = env.at("sun_dir_world").get<std::vector<double>>();
+            dir_true = Eigen::Vector3d(s[0], s[1], s[2]);
+          }
+          const double angle = AngleDeg(dir_est, dir_true);
+          rel.push_back(c.relative_error);
+          angle_all.push_back(angle);
+          if (sky) angle_sky.push_back(angle);
+          list.push_back({{"name", name},
+                          {"relative_error", c.relative_error},
+                          {"scale", Vec(c.scale)},
+                          {"light_dir_error_deg", angle},
+                          {"truth_direction_from", sky ? "sun" : "brightest lobe of the true map"},
+                          {"direction_world", Vec(dir_est)},
+                          {"true_direction_world", Vec(dir_true)}});
+          // Figures in the truth's frame, the recovered map scaled to the truth, one exposure.
+          const Image truth_ll = truth.ToLatLong(64, 2);
+          const double exposure = PercentileExposure(truth_ll, nullptr, 99);
+          WritePng(JoinPath(output_dir, base + "_oct.png"), ToneMapSrgb(ScaleChannels(est, c.scale), exposure));
+          WritePng(JoinPath(output_dir, base + "_latlong.png"),
+                   ToneMapSrgb(ScaleChannels(recovered_truth_frame.ToLatLong(64, 2), c.scale), exposure));
+          WritePng(JoinPath(output_dir, base + "_truth_oct.png"), ToneMapSrgb(tru, exposure));
+          WritePng(JoinPath(output_dir, base + "_truth_latlong.png"), ToneMapSrgb(truth_ll, exposure));
+          f["frame"] = "truth";
+          f["truth_oct"] = base + "_truth_oct.png";
+          f["truth_latlong"] = base + "_truth_latlong.png";
+          f["relative_error"] = c.relative_error;
+          f["light_dir_error_deg"] = angle;
+        } else {
+          const Image ll = recovered.ToLatLong(64, 2);
+          const double exposure = PercentileExposure(ll, nullptr, 99);
+          WritePng(JoinPath(output_dir, base + "_oct.png"), ToneMapSrgb(oct, exposure));
+          WritePng(JoinPath(output_dir, base + "_latlong.png"), ToneMapSrgb(ll, exposure));
+          f["frame"] = "model";
+        }
+        f["oct"] = base + "_oct.png";
+        f["latlong"] = base + "_latlong.png";
+        fig["envmaps"].push_back(f);
+      }
+    }
+    m["envmaps"] = {{"region", upper ? "upper hemisphere (z > 0)" : "sphere"}, {"photos", list}};
+    if (rel.empty()) {
+      NotAvailable(&m, "envmap_rel_error", reason.empty() ? "no photo has a true environment map" : reason);
+    } else {
+      m["envmap_rel_error"] = Mean(rel);
+      m["envmaps"]["median_relative_error"] = Median(rel);
+    }
+    if (!angle_all.empty()) {
+      m["light_dir_error_deg"] = Median(angle_sky.empty() ? angle_all : angle_sky);
+      m["envmaps"]["light_dir_error_from"] =
+          angle_sky.empty() ? "all photos (brightest lobe of the true map)" : "photos under a sun sky (sun direction)";
+      m["envmaps"]["light_dir_error_deg_all_photos"] = Median(angle_all);
+      m["envmaps"]["light_dir_error_deg_sky_photos"] =
+          angle_sky.empty() ? OrderedJson(nullptr) : OrderedJson(Median(angle_sky));
+    }
+  }
+
+  // --- DiLiGenT-style known directional lights.
+  if (has_gt && IsFile(JoinPath(gt, "lights.json")) && !in.inverse_dir.empty()) {
+    const LightEvaluation e =
+        EvaluateDirectionalLights(in.inverse_dir, ReadDirectionalLights(JoinPath(gt, "lights.json")));
+    OrderedJson per = OrderedJson::array();
+    for (size_t k = 0; k < e.photos.size(); ++k)
+      per.push_back({{"name", e.photos[k]},
+                     {"angle_error_deg", e.angle_error_deg[k]},
+                     {"power_rgb", Vec(e.power_rgb[k])},
+                     {"true_rgb", Vec(e.true_rgb[k])}});
+    m["directional_lights"] = {{"median_angle_deg", e.median_angle_deg},
+                               {"p90_angle_deg", e.p90_angle_deg},
+                               {"pearson_rgb", Vec(e.pearson)},
+                               {"relative_intensity_rmse", e.relative_intensity_rmse},
+                               {"photos", per}};
+    if (m["light_dir_error_deg"].is_null()) {
+      m["light_dir_error_deg"] = e.median_angle_deg;
+      m["not_available"].erase("light_dir_error_deg");
+    }
+  } else if (m["light_dir_error_deg"].is_null()) {
+    NotAvailable(&m, "light_dir_error_deg",
+                 has_gt ? "the ground truth has neither lighting.json nor lights.json (or the frames are unrelated)"
+                        : "no ground truth");
+  }
+
+  // --- Albedo.
+  fig["albedo"] = OrderedJson::array();
+  {
+    std::string reason;
+    const std::string truth_path = JoinPath(gt, "mesh.ply");
+    if (!has_gt || !IsFile(truth_path))
+      reason = has_gt ? "the ground truth has no mesh.ply" : "no ground truth";
+    else if (in.inverse_dir.empty())
+      reason = "the inverse stage did not run";
+    else if (!frame.available)
+      reason = "the model's frame could not be related to the ground truth: " + frame.reason;
+    TriangleMesh truth_mesh, model_mesh;
+    if (reason.empty()) {
+      truth_mesh = ReadMesh(truth_path);
+      model_mesh = ReadMesh(JoinPath(in.inverse_dir, "reflectance.ply"));
+      for (const char* p : {"albedo_r", "albedo_g", "albedo_b"}) {
+        if (!truth_mesh.FindProperty(p))
+          reason = "the ground-truth mesh has no albedo_r/g/b";
+        else if (!model_mesh.FindProperty(p))
+          reason = "reflectance.ply has no albedo_r/g/b";
+      }
+    }
+    if (reason.empty()) {
+      std::string mesh_source;
+      if (IsFile(JoinPath(in.mesh_dir, "mesh_summary.json")))
+        mesh_source = ReadJsonFile(JoinPath(in.mesh_dir, "mesh_summary.json")).value("source", "");
+      const bool same =
+          mesh_source == "ground_truth" && truth_mesh.num_vertices() == model_mesh.num_vertices() && frame.IsIdentity();
+      std::vector<char> seen(model_mesh.num_vertices(), 0);
+      for (const auto& ob : observations.records)
+        if (ob.vertex < seen.size()) seen[ob.vertex] = 1;
+      if (observations.records.empty()) std::fill(seen.begin(), seen.end(), 1);
+      const TriangleMesh model_in_truth = frame.MeshToTruth(model_mesh);
+      std::unique_ptr<SurfaceIndex> index;
+      if (!same) index = std::make_unique<SurfaceIndex>(truth_mesh);
+      const std::vector<float>* ta[3] = {truth_mesh.FindProperty("albedo_r"), truth_mesh.FindProperty("albedo_g"),
+                                         truth_mesh.FindProperty("albedo_b")};
+      const std::vector<float>* ea[3] = {model_mesh.FindProperty("albedo_r"), model_mesh.FindProperty("albedo_g"),
+                                         model_mesh.FindProperty("albedo_b")};
+      std::vector<Eigen::Vector3d> t, e;
+      for (size_t v = 0; v < model_mesh.num_vertices(); ++v) {
+        if (!seen[v]) continue;
+        Eigen::Vector3d tv;
+        if (same) {
+          for (int c = 0; c < 3; ++c) tv[c] = (*ta[c])[v];
+        } else {
+          const ClosestPoint cp = index->Query(model_in_truth.vertices[v].cast<double>());
+          for (int c = 0; c < 3; ++c) tv[c] = index->Interpolate(cp, *ta[c]);
+        }
+        t.push_back(tv);
+        e.push_back(Eigen::Vector3d((*ea[0])[v], (*ea[1])[v], (*ea[2])[v]));
+      }
+      if (t.empty()) {
+        reason = "no vertex is observed";
+      } else {
+        Eigen::Vector3d te = Eigen::Vector3d::Zero(), ee = Eigen::Vector3d::Zero();
+        for (size_t k = 0; k < t.size(); ++k) {
+          te += t[k].cwiseProduct(e[k]);
+          ee += e[k].cwiseProduct(e[k]);
+        }
+        Eigen::Vector3d s;
+        for (int c = 0; c < 3; ++c) s[c] = ee[c] > 0 ? te[c] / ee[c] : 1.0;
+        double se = 0;
+        for (size_t k = 0; k < t.size(); ++k) se += (s.cwiseProduct(e[k]) - t[k]).squaredNorm();
+        const double mse = se / (3.0 * t.size());
+        const double psnr = mse > 0 ? std::min(kMaxPsnrDb, 10 * std::log10(1.0 / mse)) : kMaxPsnrDb;
+        m["albedo_psnr_db"] = psnr;
+        m["albedo"] = {{"vertices", t.size()},
+                       {"correspondence", same ? "same mesh" : "closest point on the true mesh"},
+                       {"scale", Vec(s)},
+                       {"rmse", std::sqrt(mse)},
+                       {"peak", 1.0}};
+        // Recovered (scaled) beside true albedo from relight's albedo cameras.
+        if (caster) {
+          std::vector<Eigen::Vector3f> est_rgb(model_mesh.num_vertices()), true_rgb(truth_mesh.num_vertices());
+          for (size_t v = 0; v < model_mesh.num_vertices(); ++v)
+            for (int c = 0; c < 3; ++c) est_rgb[v][c] = float(s[c] * (*ea[c])[v]);
+          for (size_t v = 0; v < truth_mesh.num_vertices(); ++v)
+            for (int c = 0; c < 3; ++c) true_rgb[v][c] = (*ta[c])[v];
+          const RayCaster model_caster({&model_mesh}), truth_caster({&truth_mesh});
+          const Eigen::Vector3f grey = Eigen::Vector3f::Constant(0.18f);
+          for (const auto& r : renders) {
+            if (r.kind != "albedo") continue;
+            const std::string base = "figures/albedo/" + r.name;
+            WritePng(
+                JoinPath(output_dir, base + "_recovered.png"),
+                ToneMapSrgb(RenderVertexColors(model_caster, 0, est_rgb, r.camera.camera, r.camera.pose, grey), 1));
+            WritePng(JoinPath(output_dir, base + "_truth.png"),
+                     ToneMapSrgb(RenderVertexColors(truth_caster, 0, true_rgb, r.camera.camera,
+                                                    frame.PoseToTruth(r.camera.pose), grey),
+                                 1));
+            fig["albedo"].push_back(
+                {{"view", r.view}, {"recovered", base + "_recovered.png"}, {"truth", base + "_truth.png"}});
+          }
+        }
+      }
+    }
+    if (!reason.empty()) NotAvailable(&m, "albedo_psnr_db", reason);
+  }
+
+  // --- Cameras and mesh against the ground truth.
+  if (frame.has_camera_errors) {
+    const CameraErrors& c = frame.camera_errors;
+    m["cameras"] = {{"matched", c.matched},
+                    {"missing", c.missing},
+                    {"median_rotation_deg", c.median_rotation_deg},
+                    {"max_rotation_deg", c.max_rotation_deg},
+                    {"median_center_error", c.median_center_error},
+                    {"median_center_error_relative", c.median_center_error_relative},
+                    {"scene_radius", c.scene_radius}};
+  } else {
+    m["not_available"]["cameras"] = !has_gt           ? "no ground truth"
+                                    : frame.available ? "the sfm stage used the ground-truth cameras"
+                                                      : frame.reason;
+  }
+  {
+    std::string mesh_source;
+    if (!in.mesh_dir.empty() && IsFile(JoinPath(in.mesh_dir, "mesh_summary.json")))
+      mesh_source = ReadJsonFile(JoinPath(in.mesh_dir, "mesh_summary.json")).value("source", "");
+    const std::string truth_path = JoinPath(gt, "mesh.ply");
+    if (has_gt && IsFile(truth_path) && !mesh.empty() && frame.available && mesh_source != "ground_truth") {
+      const TriangleMesh truth_mesh = ReadMesh(truth_path);
+      const MeshDistances d = CompareMeshes(frame.MeshToTruth(mesh), truth_mesh, size_t(o.mesh_samples));
+      m["mesh"] = {{"source", mesh_source},
+                   {"diagonal", d.diagonal},
+                   {"chamfer_relative", d.chamfer / d.diagonal},
+                   {"accuracy_mean_relative", d.accuracy_mean / d.diagonal},
+                   {"completeness_mean_relative", d.completeness_mean / d.diagonal},
+                   {"accuracy_p90_relative", d.accuracy_p90 / d.diagonal},
+                   {"completeness_p90_relative", d.completeness_p90 / d.diagonal},
+                   {"samples", d.samples}};
+    } else {
+      m["not_available"]["mesh"] = !has_gt || !IsFile(truth_path) ? "no ground-truth mesh"
+                                   : mesh.empty()                 ? "the mesh stage did not run"
+                                   : !frame.available             ? frame.reason
+                                                                  : "the mesh is the ground truth's";
+    }
+  }
+
+  // --- Leave-one-photo-out.
+  fig["loo"] = OrderedJson::array();
+  {
+    const bool gt_light = has_gt && (IsFile(JoinPath(gt, "relight/index.json")) ||
+                                     IsFile(JoinPath(gt, "lighting.json")) || IsFile(JoinPath(gt, "lights.json")));
+    const bool run = o.leave_one_out == "always" || (o.leave_one_out == "auto" && !gt_light);
+    std::string reason;
+    if (!run) {
+      reason = o.leave_one_out == "never"
+                   ? "evaluate.leave_one_out is never"
+                   : "the ground truth knows the light (evaluate.leave_one_out: always to run it)";
+    } else if (in.visibility_dir.empty() || in.observe_dir.empty() || in.inverse_dir.empty() || !caster ||
+               in.linearize_dir.empty()) {
+      reason = "the mesh, linearize, visibility, observe and inverse stages must all have run";
+    }
+    OrderedJson list = OrderedJson::array();
+    std::vector<double> psnr;
+    if (reason.empty()) {
+      InverseOptions inverse_options;
+      if (!ReadResolvedOptions(in.inverse_dir, "inverse", &inverse_options))
+        RLOG_WARN("no {}/config.yaml: leave-one-out uses the inverse stage's default options", in.inverse_dir);
+      InverseProblem problem = LoadInverseProblem(in.mesh_dir, in.visibility_dir, in.observe_dir);
+      // Render the held-out photo as the relight stage renders re-renderings.
+      RelightOptions relight_options;
+      ReadResolvedOptions(in.relight_dir, "relight", &relight_options);
+      const bool zero_unseen = relight_options.zero_unseen_light;
+      std::map<std::string, const RenderRecord*> rerender;
+      for (const auto& r : renders)
+        if (r.kind == "rerender") rerender[r.view] = &r;
+      const std::vector<uint32_t> chosen = SpreadPhotos(problem.observations.num_photos, o.loo_max_photos);
+      TriangleMesh occ = occluders;
+      occ.properties.clear();
+      occ.colors.clear();
+      if (!occ.empty() && occ.normals.size() != occ.num_vertices()) occ.ComputeVertexNormals();
+      RLOG_INFO("leave-one-photo-out: {} photo(s), one reflectance solve each", chosen.size());
+      for (uint32_t i : chosen) {
+        const ObservedPhoto& photo = problem.photos[i];
+        auto it = rerender.find(photo.name);
+        OrderedJson e{{"name", photo.name}};
+        if (it == rerender.end()) {
+          e["psnr_db"] = nullptr;
+          e["reason"] = "the relight stage did not re-render this photo";
+          list.push_back(e);
+          continue;
+        }
+        const RenderRecord& r = *it->second;
+        const LeaveOneOutFit fit = LeaveOneOut(&problem, inverse_options, i, o.loo_max_iterations);
+        TriangleMesh weighted = problem.mesh;
+        const int nm = fit.reflectance.num_materials;
+        for (int mm = 0; mm < nm; ++mm) {
+          std::vector<float>& w = weighted.Property("w" + std::to_string(mm));
+          for (size_t v = 0; v < weighted.num_vertices(); ++v) w[v] = fit.reflectance.weights[v * nm + mm];
+        }
+        const Scene scene(ModelSurfaces(weighted, fit.reflectance.Model(), occ, 0.35), "leave-one-out model");
+        RenderOptions ro;
+        ro.light_samples = o.loo_light_samples;
+        ro.brdf_samples = o.loo_brdf_samples;
+        ro.background = false;
+        ro.seed = MixSeed(1, 0x100 + i);
+        const Image map = zero_unseen ? ZeroTexels(fit.lighting_oct, UnseenOctTexels(scene, fit.lighting_oct.width))
+                                      : fit.lighting_oct;
+        const RenderedView view = RenderView(scene, Lighting::FromEnvMap(EnvMap::FromOctahedral(map)),
+                                             r.camera.camera, r.camera.pose, ro, i);
+        const PhotoReference ref =
+            LoadPhotoReference(in.linearize_dir, r.name, view.radiance.width, view.radiance.height);
+        const Image mask = ComparisonMask(
+            ObservedPixelMask(*caster, ObservedVertices(observations, i), r.camera.camera, r.camera.pose), ref, o);
+        if (CountMask(mask) == 0) {
+          e["psnr_db"] = nullptr;
+          e["reason"] = "no observed, unclipped pixel";
+          list.push_back(e);
+          continue;
+        }
+        const ImageComparison c = CompareScaleInvariant(ref.linear, view.radiance, mask, compare, photo.name);
+        e.update(ComparisonJson(c));
+        e["seconds"] = fit.seconds + view.seconds;
+        e["reflectance_iterations"] = fit.reflectance_summary.iterations.size();
+        list.push_back(e);
+        psnr.push_back(c.psnr_db);
+        const std::string base = "figures/loo/" + r.name;
+        const double exposure = PercentileExposure(ref.linear, &mask, 99);
+        WritePng(JoinPath(output_dir, base + "_render.png"),
+                 ToneMapSrgb(ScaleChannels(view.radiance, c.scale), exposure));
+        WritePng(JoinPath(output_dir, base + "_error.png"),
+                 HeatMap(RelativeErrorImage(ref.linear, view.radiance, c.scale, c.peak), o.heatmap_max, &mask));
+        fig["loo"].push_back({{"name", photo.name},
+                              {"render", base + "_render.png"},
+                              {"error", base + "_error.png"},
+                              {"psnr_db", c.psnr_db}});
+        RLOG_INFO("leave-one-out {}: PSNR {:.2f} dB ({:.1f} s)", photo.name, c.psnr_db, fit.seconds);
+      }
+      if (psnr.empty()) reason = "no scored photo could be rendered";
+    }
+    m["leave_one_out"] = {{"photos", list}};
+    if (psnr.empty()) {
+      NotAvailable(&m, "loo_psnr_db", reason);
+    } else {
+      m["loo_psnr_db"] = Mean(psnr);
+    }
+  }
+
+  // --- Timings.
+  std::map<std::string, std::string> inputs;
+  for (const auto& [name, dir] : std::map<std::string, std::string>{{"ingest", in.ingest_dir},
+                                                                    {"sfm", in.sfm_dir},
+                                                                    {"mesh", in.mesh_dir},
+                                                                    {"linearize", in.linearize_dir},
+                                                                    {"observe", in.observe_dir},
+                                                                    {"visibility", in.visibility_dir},
+                                                                    {"inverse", in.inverse_dir},
+                                                                    {"relight", in.relight_dir}})
+    if (!dir.empty()) inputs[name] = dir;
+  m["seconds"] = CollectStageSeconds(inputs);
+  summary.seconds = total.Seconds();
+  m["seconds"]["evaluate"] = summary.seconds;
+  double sum = 0;
+  for (const auto& [k, v] : m["seconds"].items()) sum += v.get<double>();
+  m["seconds"]["total"] = sum;
+
+  WriteJsonAtomic(JoinPath(output_dir, "metrics.json"), m);
+  WriteJsonAtomic(JoinPath(output_dir, "figures.json"), fig);
+  RLOG_INFO("evaluate: {}", summary.BriefReport());
+  return summary;
+}
+
+}  // namespace relight

@@ -1,0 +1,46 @@
+// Geometry metrics of dense reconstructions against ground truth, with
+// distances measured by CGAL's AABB tree (points to triangles) and k-d tree
+// (points to points): accuracy / completeness of point clouds at a distance
+// threshold (Seitz et al. 2006, Knapitsch et al. 2017), the symmetric Chamfer
+// distance of two meshes from area-uniform surface samples, and the edge
+// topology that says whether a mesh is closed.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "geometry/mesh.h"
+
+namespace relight {
+
+// Edge statistics of a triangle mesh.
+struct MeshTopology {
+  size_t num_edges = 0;
+  size_t boundary_edges = 0;      // edges of one triangle
+  size_t nonmanifold_edges = 0;   // edges of three or more triangles
+  // Every edge is shared by exactly two triangles.
+  bool closed() const { return num_edges > 0 && boundary_edges == 0 && nonmanifold_edges == 0; }
+};
+MeshTopology AnalyzeTopology(const TriangleMesh& mesh);
+
+// `count` points uniform over the surface area (deterministic for a seed).
+std::vector<Eigen::Vector3f> SampleSurface(const TriangleMesh& mesh, size_t count, uint64_t seed);
+// Distance of each point to the nearest point of the mesh surface.
+std::vector<double> DistancesToMesh(const std::vector<Eigen::Vector3f>& points, const TriangleMesh& mesh);
+// Distance of each query to the nearest of `points`.
+std::vector<double> DistancesToPoints(const std::vector<Eigen::Vector3f>& queries,
+                                      const std::vector<Eigen::Vector3f>& points);
+// Fraction of `distances` at most `threshold`.
+double FractionWithin(const std::vector<double>& distances, double threshold);
+double Mean(const std::vector<double>& values);
+
+// Symmetric Chamfer distance between meshes `a` and `b` from `samples` surface samples each.
+struct ChamferDistance {
+  double a_to_b = 0;  // mean distance of a's samples to b
+  double b_to_a = 0;  // mean distance of b's samples to a
+  double Symmetric() const { return 0.5 * (a_to_b + b_to_a); }
+};
+ChamferDistance MeshChamfer(const TriangleMesh& a, const TriangleMesh& b, size_t samples, uint64_t seed);
+
+}  // namespace relight

@@ -1,0 +1,242 @@
+#include "mvs/mvs_evaluation.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "geometry/align.h"
+#include "geometry/mesh_io.h"
+#include "geometry/reconstruction.h"
+#include "image/image.h"
+#include "mvs/colmap_mat.h"
+#include "mvs/mesh_metrics.h"
+#include "mvs/stereo_view.h"
+
+namespace relight {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string Stem(const std::string& name) { return fs::path(name).stem().string(); }
+
+Eigen::Vector3f ApplySim(const Sim3& sim, const Eigen::Vector3f& p) {
+  return sim.Apply(p.cast<double>()).cast<float>();
+}
+
+bool InBox(const Eigen::AlignedBox3f& box, const Eigen::Vector3f& p) { return box.contains(p); }
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+}  // namespace
+
+OrderedJson MvsEvaluation::ToJson() const {
+  OrderedJson j;
+  j["map_type"] = map_type;
+  j["diagonal"] = diagonal;
+  j["alignment_scale"] = scale;
+  j["mean_depth_completeness"] = mean_depth_completeness;
+  j["min_depth_completeness"] = min_depth_completeness;
+  j["fused_points_in_box"] = fused_points;
+  j["fused_accuracy"] = fused_accuracy;
+  j["fused_completeness"] = fused_completeness;
+  j["fused_mean_distance_relative"] = diagonal > 0 ? fused_mean_distance / diagonal : 0.0;
+  if (has_mesh) {
+    j["chamfer_relative"] = chamfer / diagonal;
+    j["chamfer_mesh_to_truth_relative"] = chamfer_mesh_to_truth / diagonal;
+    j["chamfer_truth_to_mesh_relative"] = chamfer_truth_to_mesh / diagonal;
+  }
+  OrderedJson list = OrderedJson::array();
+  for (const auto& v : views) {
+    list.push_back({{"name", v.name},
+                    {"object_pixels", v.object_pixels},
+                    {"completeness", v.completeness},
+                    {"missing", v.missing},
+                    {"median_error_of_range", v.median_error}});
+  }
+  j["views"] = list;
+  return j;
+}
+
+std::string MvsEvaluation::BriefReport() const {
+  std::ostringstream s;
+  s.precision(3);
+  s << "depth maps (" << map_type << "): completeness mean " << mean_depth_completeness << ", min "
+    << min_depth_completeness << " over " << views.size() << " views\n";
+  s << "fused: " << fused_points << " points in the object's box, accuracy " << fused_accuracy
+    << ", completeness " << fused_completeness << ", mean distance " << fused_mean_distance / diagonal
+    << " of the diagonal\n";
+  if (has_mesh) {
+    s << "mesh: Chamfer " << chamfer / diagonal << " of the diagonal (mesh->truth "
+      << chamfer_mesh_to_truth / diagonal << ", truth->mesh " << chamfer_truth_to_mesh / diagonal << ")";
+  }
+  return s.str();
+}
+
+MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_truth_dir,
+                          const MvsEvaluationOptions& options) {
+  MvsEvaluation result;
+  const Reconstruction truth = Reconstruction::Read(ground_truth_dir);
+  const Reconstruction estimate = Reconstruction::Read(JoinPath(mvs_dir, "dense/sparse"));
+  const CameraErrors cameras = CompareCameras(estimate, truth);
+  if (cameras.matched < 3) {
+    RELIGHT_USER_ERROR() << "only " << cameras.matched << " images of '" << mvs_dir
+                         << "/dense/sparse' match the true cameras in '" << ground_truth_dir
+                         << "' by name; cannot align the reconstruction";
+  }
+  const Sim3 true_from_est = cameras.truth_from_estimate;
+  const Sim3 est_from_true = true_from_est.Inverse();
+  result.scale = true_from_est.scale;
+
+  TriangleMesh object = ReadMesh(JoinPath(ground_truth_dir, "mesh.ply"));
+  TriangleMesh surfaces = object;
+  if (fs::exists(JoinPath(ground_truth_dir, "occluders.ply"))) {
+    surfaces.Append(ReadMesh(JoinPath(ground_truth_dir, "occluders.ply")));
+  }
+  const Eigen::AlignedBox3f object_box = object.BoundingBox();
+  result.diagonal = (object_box.max() - object_box.min()).norm();
+  Eigen::AlignedBox3f box = object_box;
+  const float grow = float(options.crop_margin * result.diagonal);
+  box.min() -= Eigen::Vector3f::Constant(grow);
+  box.max() += Eigen::Vector3f::Constant(grow);
+
+  // ---- depth maps, view by view, compared along the true cameras' pixel rays.
+  const std::string stereo = JoinPath(mvs_dir, "dense/stereo");
+  for (const auto& [id, est_image] : estimate.images) {
+    const ImageRecord* true_image = truth.FindImage(est_image.name);
+    if (true_image == nullptr) continue;
+    std::string type = "geometric";
+    if (!fs::exists(stereo + "/depth_maps/" + est_image.name + ".geometric.bin")) type = "photometric";
+    const std::string depth_path = stereo + "/depth_maps/" + est_image.name + "." + type + ".bin";
+    const std::string true_depth_path = JoinPath(ground_truth_dir, "depth/" + Stem(est_image.name) + ".exr");
+    if (!fs::exists(depth_path) || !fs::exists(true_depth_path)) continue;
+    result.map_type = type;
+    const ColmapMat depth_mat = ReadColmapMat(depth_path);
+    const ColmapMat normal_mat = ReadColmapMat(stereo + "/normal_maps/" + est_image.name + "." + type + ".bin");
+    const StereoView est_view =
+        MakeStereoView(estimate, est_image, std::max(depth_mat.width, depth_mat.height));
+    if (est_view.width != depth_mat.width || est_view.height != depth_mat.height) {
+      RELIGHT_USER_ERROR() << "'" << depth_path << "' does not have the size of its camera; rerun the mvs stage";
+    }
+    const DepthNormalMap map = FromColmapMaps(depth_mat, normal_mat, est_view.K, depth_path);
+    const Image true_depth = ReadImage(true_depth_path);
+    Image mask;
+    const std::string mask_path = JoinPath(ground_truth_dir, "masks/" + Stem(est_image.name) + ".png");
+    if (fs::exists(mask_path)) mask = ReadImage(mask_path);
+    const Camera& true_camera = truth.cameras.at(true_image->camera_id);
+    StereoView true_view;  // pose only; rays come from the (possibly distorted) true camera
+    true_view.R_cam_from_world = true_image->CamFromWorldRotation();
+    true_view.t_cam_from_world = true_image->cam_from_world_translation;
+    if (true_depth.width != true_camera.width || true_depth.height != true_camera.height) {
+      RELIGHT_USER_ERROR() << "'" << true_depth_path << "' is not of the size of its camera in '" << ground_truth_dir
+                           << "'";
+    }
+    const auto is_object = [&](int x, int y) {
+      if (!(true_depth.at(x, y) > 0)) return false;
+      return mask.empty() || mask.at(x, y, 0) > 0.5f;
+    };
+    float lo = 1e30f, hi = 0;
+    for (int y = 0; y < true_depth.height; ++y) {
+      for (int x = 0; x < true_depth.width; ++x) {
+        if (is_object(x, y)) lo = std::min(lo, true_depth.at(x, y)), hi = std::max(hi, true_depth.at(x, y));
+      }
+    }
+    ViewDepthScore score;
+    score.name = est_image.name;
+    if (!(hi > lo)) continue;
+    const double tolerance = options.depth_tolerance * (hi - lo);
+    const Eigen::Matrix3d true_world_from_cam = true_view.R_cam_from_world.transpose();
+    const Eigen::Vector3d true_center = true_view.CenterWorld();
+    size_t good = 0, missing = 0;
+    std::vector<double> errors;
+    for (int y = 0; y < true_depth.height; ++y) {
+      for (int x = 0; x < true_depth.width; ++x) {
+        if (!is_object(x, y)) continue;
+        ++score.object_pixels;
+        // The true point of this pixel, seen from our (aligned) camera.
+        const Eigen::Vector3d ray_true_cam =
+            true_camera.NormalizedFromImage(Eigen::Vector2d(x + 0.5, y + 0.5)).homogeneous();
+        const Eigen::Vector3d X_true = true_center + true_world_from_cam * (ray_true_cam * true_depth.at(x, y));
+        const Eigen::Vector3d X_est = est_view.R_cam_from_world * est_from_true.Apply(X_true) + est_view.t_cam_from_world;
+        bool found = false;
+        if (X_est.z() > 0) {
+          const Eigen::Vector3d p = est_view.K * (X_est / X_est.z());
+          const int col = static_cast<int>(std::floor(p.x())), row = static_cast<int>(std::floor(p.y()));
+          if (col >= 0 && row >= 0 && col < map.width && row < map.height && map.depth[map.index(col, row)] > 0) {
+            // Our point on the same pixel, back in the true frame, depth along the true camera's axis.
+            const Eigen::Vector3d ray_est = est_view.K.inverse() * Eigen::Vector3d(col + 0.5, row + 0.5, 1.0);
+            const Eigen::Vector3d Y_est_world = est_view.R_cam_from_world.transpose() *
+                                                (ray_est * map.depth[map.index(col, row)] - est_view.t_cam_from_world);
+            const double z = (true_view.R_cam_from_world * true_from_est.Apply(Y_est_world) +
+                              true_view.t_cam_from_world).z();
+            const double error = std::abs(z - true_depth.at(x, y));
+            errors.push_back(error / (hi - lo));
+            if (error <= tolerance) ++good;
+            found = true;
+          }
+        }
+        if (!found) ++missing;
+      }
+    }
+    if (score.object_pixels == 0) continue;
+    score.completeness = double(good) / score.object_pixels;
+    score.missing = double(missing) / score.object_pixels;
+    score.median_error = Median(errors);
+    result.views.push_back(score);
+  }
+  if (!result.views.empty()) {
+    result.min_depth_completeness = 1;
+    for (const auto& v : result.views) {
+      result.mean_depth_completeness += v.completeness / result.views.size();
+      result.min_depth_completeness = std::min(result.min_depth_completeness, v.completeness);
+    }
+  }
+
+  // ---- fused points
+  const TriangleMesh fused = ReadMesh(JoinPath(mvs_dir, "fused.ply"));
+  std::vector<Eigen::Vector3f> all_points, box_points;
+  for (const auto& p : fused.vertices) {
+    all_points.push_back(ApplySim(true_from_est, p));
+    if (InBox(box, all_points.back())) box_points.push_back(all_points.back());
+  }
+  result.fused_points = box_points.size();
+  const std::vector<Eigen::Vector3f> object_samples = SampleSurface(object, options.surface_samples, 17);
+  if (!box_points.empty()) {
+    const std::vector<double> accuracy = DistancesToMesh(box_points, surfaces);
+    result.fused_accuracy = FractionWithin(accuracy, options.accuracy_threshold * result.diagonal);
+    result.fused_mean_distance = Mean(accuracy);
+  }
+  if (!all_points.empty()) {
+    result.fused_completeness = FractionWithin(DistancesToPoints(object_samples, all_points),
+                                               options.completeness_threshold * result.diagonal);
+  }
+
+  // ---- mesh
+  const std::string mesh_path = JoinPath(mvs_dir, "meshed.ply");
+  if (fs::exists(mesh_path)) {
+    TriangleMesh mesh = ReadMesh(mesh_path);
+    for (auto& v : mesh.vertices) v = ApplySim(true_from_est, v);
+    TriangleMesh cropped;
+    cropped.vertices = mesh.vertices;
+    for (const auto& f : mesh.faces) {
+      if (InBox(box, mesh.vertices[f[0]]) && InBox(box, mesh.vertices[f[1]]) && InBox(box, mesh.vertices[f[2]])) {
+        cropped.faces.push_back(f);
+      }
+    }
+    if (!cropped.faces.empty()) {
+      result.has_mesh = true;
+      result.chamfer_mesh_to_truth =
+          Mean(DistancesToMesh(SampleSurface(cropped, options.surface_samples, 19), surfaces));
+      result.chamfer_truth_to_mesh = Mean(DistancesToMesh(object_samples, mesh));
+      result.chamfer = 0.5 * (result.chamfer_mesh_to_truth + result.chamfer_truth_to_mesh);
+    }
+  }
+  return result;
+}
+
+}  // namespace relight

@@ -1,0 +1,389 @@
+// Unit tests of the mvs module: COLMAP map format, pixel conventions, the NCC
+// cost against its plain reference, PatchMatch on a fronto-parallel plane
+// (exact depth), source-view selection, and COLMAP's stereo_fusion reading
+// our maps.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <random>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/log.h"
+#include "geometry/mesh_io.h"
+#include "mvs/colmap_mat.h"
+#include "mvs/colmap_tools.h"
+#include "mvs/hole_filling.h"
+#include "mvs/mesh_metrics.h"
+#include "mvs/mvs.h"
+#include "mvs/mvs_workspace.h"
+#include "mvs/ncc_cost.h"
+#include "mvs/patch_match.h"
+#include "mvs/stereo_view.h"
+#include "mvs/test_scene.h"
+#include "mvs/view_selection.h"
+#include "testing/testing.h"
+
+namespace relight {
+namespace {
+namespace fs = std::filesystem;
+using mvs_test::TestScene;
+
+class MvsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    InitLogging("mvs_test", "", LogLevel::kError);
+    setenv("RELIGHT_PROGRESS", "off", 1);
+  }
+};
+
+TEST_F(MvsTest, ColmapMatHasColmapsByteLayoutAndRoundTrips) {
+  ColmapMat mat(3, 2, 2);
+  for (size_t i = 0; i < mat.data.size(); ++i) mat.data[i] = 0.5f * float(i) - 1.0f;
+  mat.at(1, 2, 1) = 42.0f;  // row 1, col 2, channel 1
+  const std::string bytes = EncodeColmapMat(mat);
+  ASSERT_EQ(bytes.substr(0, 6), "3&2&2&");
+  ASSERT_EQ(bytes.size(), 6 + 3 * 2 * 2 * sizeof(float));
+  // Planar, row-major: (row 1, col 2, channel 1) is element 1·6 + 1·3 + 2 = 11 (COLMAP's Mat::Get).
+  float value;
+  std::memcpy(&value, bytes.data() + 6 + 11 * sizeof(float), sizeof(float));
+  EXPECT_EQ(value, 42.0f);
+
+  testing::TempDir dir;
+  WriteColmapMat(dir / "m.bin", mat);
+  const ColmapMat back = ReadColmapMat(dir / "m.bin");
+  EXPECT_EQ(back.width, 3);
+  EXPECT_EQ(back.height, 2);
+  EXPECT_EQ(back.channels, 2);
+  EXPECT_EQ(back.data, mat.data);
+
+  WriteFileAtomic(dir / "truncated.bin", bytes.substr(0, bytes.size() - 3));
+  EXPECT_THROW(ReadColmapMat(dir / "truncated.bin"), UserError);
+  WriteFileAtomic(dir / "text.bin", "hello world");
+  EXPECT_THROW(ReadColmapMat(dir / "text.bin"), UserError);
+  EXPECT_THROW(ReadColmapMat(dir / "missing.bin"), UserError);
+}
+
+TEST_F(MvsTest, ColmapConventionMapsPutPixelsOnTheEstimatedPlane) {
+  // A slanted plane n·X = q seen by a pinhole camera.
+  Eigen::Matrix3d K;
+  K << 200, 0, 80.3, 0, 190, 61.7, 0, 0, 1;
+  const Eigen::Vector3f n = Eigen::Vector3f(0.4f, -0.3f, -1.0f).normalized();
+  const float q = n.dot(Eigen::Vector3f(0, 0, 4.0f));
+  const Eigen::Matrix3f K_inv = K.inverse().cast<float>();
+  DepthNormalMap map(160, 120);
+  for (int row = 0; row < 120; ++row) {
+    for (int col = 0; col < 160; ++col) {
+      const Eigen::Vector3f ray = K_inv * Eigen::Vector3f(col + 0.5f, row + 0.5f, 1);
+      map.depth[map.index(col, row)] = q / n.dot(ray);
+      map.normal_cam[map.index(col, row)] = n;
+    }
+  }
+  map.depth[map.index(5, 5)] = 0;  // an empty pixel stays empty
+  map.normal_cam[map.index(5, 5)].setZero();
+  ColmapMat depth, normal;
+  ToColmapMaps(map, K, &depth, &normal);
+  double max_plane_error = 0, max_shift = 0;
+  for (int row = 0; row < 120; ++row) {
+    for (int col = 0; col < 160; ++col) {
+      if (col == 5 && row == 5) continue;
+      // stereo_fusion's back-projection: d · K⁻¹ (col, row, 1).
+      const Eigen::Vector3f X = depth.at(row, col) * (K_inv * Eigen::Vector3f(float(col), float(row), 1));
+      max_plane_error = std::max(max_plane_error, double(std::abs(n.dot(X) - q)));
+      max_shift = std::max(max_shift, double(std::abs(depth.at(row, col) - map.depth[map.index(col, row)])));
+      EXPECT_FLOAT_EQ(normal.at(row, col, 2), n.z());
+    }
+  }
+  EXPECT_LT(max_plane_error, 1e-5);
+  EXPECT_GT(max_shift, 1e-3);  // the conversion really moves depths on a slanted plane
+  EXPECT_EQ(depth.at(5, 5), 0.0f);
+  const DepthNormalMap back = FromColmapMaps(depth, normal, K, "test");
+  for (size_t i = 0; i < map.depth.size(); ++i) ASSERT_NEAR(back.depth[i], map.depth[i], 2e-5f * 5) << i;
+  EXPECT_EQ(back.depth[back.index(5, 5)], 0.0f);
+}
+
+Image RandomTexture(int w, int h, uint32_t seed) {
+  // Smooth random texture: bilinear upsampling of coarse noise.
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.1f, 0.9f);
+  Image coarse(w / 4 + 2, h / 4 + 2, 1);
+  for (float& v : coarse.pixels) v = u(rng);
+  Image img(w, h, 1);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) SampleBilinear(coarse, (x + 0.5) / 4.0, (y + 0.5) / 4.0, &img.at(x, y));
+  }
+  return img;
+}
+
+TEST_F(MvsTest, VectorizedNccMatchesPlainLoopAndClosedForms) {
+  const Image ref = RandomTexture(64, 48, 1);
+  const Image src = RandomTexture(64, 48, 2);
+  for (int radius : {3, 5}) {
+    for (int step : {1, 2}) {
+      const WindowPattern pattern = MakeWindowPattern(radius, step, 5.0f);
+      std::mt19937 rng(radius * 10 + step);
+      std::uniform_real_distribution<float> jitter(-0.05f, 0.05f), shift(-6, 6);
+      RefWindow window;
+      const SamplingImage sampling = MakeSamplingImage(src);
+      double max_diff = 0, max_diff_portable = 0;
+      for (int trial = 0; trial < 200; ++trial) {
+        Homography H;
+        H << 1 + jitter(rng), jitter(rng), shift(rng), jitter(rng), 1 + jitter(rng), shift(rng),
+            0.002f * jitter(rng), 0.002f * jitter(rng), 1;
+        const int col = 2 + trial % 60, row = 2 + (trial * 7) % 44;
+        PrepareRefWindow(ref, col, row, pattern, 0.2f, &window);
+        const float fast = NccCost(window, pattern, H, sampling);
+        const float portable = NccCostPortable(window, pattern, H, sampling);
+        const float plain = NccCostPlain(ref, col, row, radius, step, 0.2f, 5.0f, H, src);
+        max_diff = std::max(max_diff, double(std::abs(fast - plain)));
+        max_diff_portable = std::max(max_diff_portable, double(std::abs(portable - plain)));
+      }
+      EXPECT_LT(max_diff, 2e-4) << "radius " << radius << " step " << step << " avx2 " << NccCostUsesAvx2();
+      EXPECT_LT(max_diff_portable, 2e-4) << "radius " << radius << " step " << step;
+    }
+  }
+  // Identity warp of the same image: NCC 1; of the negated image: NCC -1; flat source: maximal cost.
+  const WindowPattern pattern = MakeWindowPattern(5, 2, 5.0f);
+  RefWindow window;
+  PrepareRefWindow(ref, 30, 20, pattern, 0.2f, &window);
+  const Homography I = Homography::Identity();
+  EXPECT_NEAR(NccCost(window, pattern, I, MakeSamplingImage(ref)), 0.0f, 1e-4f);
+  Image negated = ref;
+  for (float& v : negated.pixels) v = 1.0f - v;
+  EXPECT_NEAR(NccCost(window, pattern, I, MakeSamplingImage(negated)), 2.0f, 1e-4f);
+  EXPECT_EQ(NccCost(window, pattern, I, MakeSamplingImage(Image(64, 48, 1, 0.5f))), kMaxNccCost);
+  // A window that maps outside the source image sees nothing.
+  Homography far = I;
+  far(0, 2) = 500;
+  EXPECT_EQ(NccCost(window, pattern, far, MakeSamplingImage(ref)), kMaxNccCost);
+}
+
+// Cameras 3 units in front of a textured square, all looking along +z, displaced sideways.
+TestScene PlaneScene(double tilt_deg) {
+  TriangleMesh square = mvs_test::MakeSquare(8.0, 0.0);
+  const Eigen::Matrix3f R = Eigen::AngleAxisf(float(tilt_deg * M_PI / 180), Eigen::Vector3f::UnitX()).toRotationMatrix();
+  for (auto& v : square.vertices) v = R * v + Eigen::Vector3f(0, 0, 3);
+  square.ComputeVertexNormals();
+  std::vector<Eigen::Vector3d> centers = {{0, 0, 0}, {0.5, 0, 0}, {-0.5, 0, 0}, {0, 0.5, 0}, {0, -0.5, 0}};
+  std::vector<ImageRecord> poses;
+  for (size_t i = 0; i < centers.size(); ++i) {
+    ImageRecord image;
+    image.image_id = static_cast<uint32_t>(i + 1);
+    image.camera_id = 1;
+    image.name = "plane_" + std::to_string(i) + ".png";
+    image.SetPose(Eigen::Matrix3d::Identity(), centers[i]);
+    poses.push_back(image);
+  }
+  const Camera camera = Camera::Pinhole(1, 160, 120, 150, 150, 80, 60);
+  return mvs_test::RenderScene(square, camera, poses, 400, 3);
+}
+
+std::vector<StereoView> ViewsWithImages(const TestScene& scene, int max_image_size = 0) {
+  std::vector<StereoView> views;
+  size_t k = 0;
+  for (const auto& [id, image] : scene.model.images) {
+    StereoView v = MakeStereoView(scene.model, image, max_image_size);
+    v.gray = mvs_test::ToGray(scene.images[k++]);
+    views.push_back(std::move(v));
+  }
+  return views;
+}
+
+TEST_F(MvsTest, PatchMatchRecoversTheExactDepthOfAFrontoParallelPlane) {
+  const TestScene scene = PlaneScene(0.0);
+  const std::vector<StereoView> views = ViewsWithImages(scene);
+  MvsOptions options;
+  const std::vector<ViewSelection> plans = SelectViews(scene.model, views, options);
+  ASSERT_EQ(plans[0].sources.size(), 4u);
+  EXPECT_LT(plans[0].depth_min, 3.0);
+  EXPECT_GT(plans[0].depth_max, 3.0);
+  PatchMatchProblem problem;
+  problem.ref = &views[0];
+  for (int s : plans[0].sources) problem.sources.push_back(&views[s]);
+  problem.depth_min = plans[0].depth_min;
+  problem.depth_max = plans[0].depth_max;
+  DepthNormalMap map = RunPatchMatch(options, problem, false, options.num_iterations);
+  // Every source sees the centre 120×80 pixels (the cameras move by 25 px at depth 3).
+  std::vector<double> depth_error, normal_error_deg;
+  for (int row = 20; row < 100; ++row) {
+    for (int col = 30; col < 130; ++col) {
+      const size_t i = map.index(col, row);
+      depth_error.push_back(std::abs(map.depth[i] - 3.0) / 3.0);
+      normal_error_deg.push_back(std::acos(std::clamp(-double(map.normal_cam[i].z()), -1.0, 1.0)) * 180 / M_PI);
+    }
+  }
+  std::sort(depth_error.begin(), depth_error.end());
+  std::sort(normal_error_deg.begin(), normal_error_deg.end());
+  const double median = depth_error[depth_error.size() / 2], p95 = depth_error[depth_error.size() * 95 / 100];
+  std::printf("fronto-parallel plane: relative depth error median %.2e, 95%% %.2e; normal error median %.2f deg\n",
+              median, p95, normal_error_deg[normal_error_deg.size() / 2]);
+  EXPECT_LT(median, 3e-4);  // 0.03% of the depth: ~1/30 pixel of disparity
+  EXPECT_LT(p95, 2e-3);
+  EXPECT_LT(normal_error_deg[normal_error_deg.size() * 9 / 10], 3.0);
+
+  // Filtering keeps (almost) all of the central region and the geometric pass agrees with it.
+  const FilterStats stats = FilterDepthMap(options, problem, false, &map);
+  EXPECT_GT(stats.valid_after, 0.8);
+}
+
+TEST_F(MvsTest, SourceSelectionPicksNeighboursAndBoundsTheTrueDepths) {
+  const Camera camera = Camera::Pinhole(1, 96, 72, 90, 90, 48, 36);
+  const auto poses = mvs_test::LookAtCameras(mvs_test::TwoRingCenters(6, 3.5), Eigen::Vector3d::Zero());
+  const TestScene scene = mvs_test::RenderScene(mvs_test::MakeBumpySphere(3), camera, poses, 1500, 5);
+  std::vector<StereoView> views;
+  for (const auto& [id, image] : scene.model.images) views.push_back(MakeStereoView(scene.model, image, 0));
+  MvsOptions options;
+  options.max_source_images = 3;
+  const std::vector<ViewSelection> plans = SelectViews(scene.model, views, options);
+  ASSERT_EQ(plans.size(), 12u);
+  for (const ViewSelection& plan : plans) {
+    ASSERT_TRUE(plan.skip_reason.empty()) << plan.skip_reason;
+    ASSERT_EQ(plan.sources.size(), 3u);
+    // The best source is among the 4 nearest cameras.
+    const Eigen::Vector3d c = views[plan.ref].CenterWorld();
+    std::vector<double> distances;
+    for (size_t j = 0; j < views.size(); ++j) {
+      if (int(j) != plan.ref) distances.push_back((views[j].CenterWorld() - c).norm());
+    }
+    std::sort(distances.begin(), distances.end());
+    EXPECT_LE((views[plan.sources[0]].CenterWorld() - c).norm(), distances[3] + 1e-9);
+    // The depth range holds every true depth of the view.
+    const Image& depth = scene.depths[plan.ref];
+    float lo = 1e9f, hi = 0;
+    for (float d : depth.pixels) {
+      if (d > 0) lo = std::min(lo, d), hi = std::max(hi, d);
+    }
+    EXPECT_LE(plan.depth_min, lo);
+    EXPECT_GE(plan.depth_max, hi);
+  }
+  // Without sparse points (cameras given as ground truth) the poses alone choose: still neighbours, still
+  // a range holding every true depth.
+  Reconstruction no_points = scene.model;
+  no_points.points3d.clear();
+  const std::vector<ViewSelection> from_poses = SelectViews(no_points, views, options);
+  for (const ViewSelection& plan : from_poses) {
+    ASSERT_TRUE(plan.skip_reason.empty()) << plan.skip_reason;
+    EXPECT_TRUE(plan.from_poses);
+    ASSERT_EQ(plan.sources.size(), 3u);
+    const Eigen::Vector3d c = views[plan.ref].CenterWorld();
+    std::vector<double> distances;
+    for (size_t j = 0; j < views.size(); ++j) {
+      if (int(j) != plan.ref) distances.push_back((views[j].CenterWorld() - c).norm());
+    }
+    std::sort(distances.begin(), distances.end());
+    EXPECT_LE((views[plan.sources[0]].CenterWorld() - c).norm(), distances[3] + 1e-9);
+    const Image& depth = scene.depths[plan.ref];
+    float lo = 1e9f, hi = 0;
+    for (float d : depth.pixels) {
+      if (d > 0) lo = std::min(lo, d), hi = std::max(hi, d);
+    }
+    EXPECT_LE(plan.depth_min, lo);
+    EXPECT_GE(plan.depth_max, hi);
+  }
+}
+
+TEST_F(MvsTest, StereoFusionFusesOurMapsOntoTheSurface) {
+  // True depth and normal maps of a slanted plane, written in our format: COLMAP's stereo_fusion must read
+  // them and put every fused point on the plane (a half-pixel convention error would miss it by ~5e-3).
+  const TestScene scene = PlaneScene(30.0);
+  testing::TempDir dir;
+  mvs_test::WriteSfmWorkspace(scene, dir / "sfm");
+  const MvsWorkspace ws = PrepareMvsWorkspace(dir / "sfm", dir / "out");
+  std::vector<std::string> names;
+  const Eigen::Vector3d n_world =
+      Eigen::AngleAxisd(30 * M_PI / 180, Eigen::Vector3d::UnitX()) * Eigen::Vector3d(0, 0, -1);
+  size_t k = 0;
+  for (const auto& [id, image] : scene.model.images) {
+    const StereoView view = MakeStereoView(scene.model, image, 0);
+    DepthNormalMap map(view.width, view.height);
+    const Image& depth = scene.depths[k++];
+    for (size_t i = 0; i < map.depth.size(); ++i) {
+      map.depth[i] = depth.pixels[i];
+      if (depth.pixels[i] > 0) map.normal_cam[i] = (view.R_cam_from_world * n_world).cast<float>();
+    }
+    ws.WriteMaps(view, map, "geometric");
+    names.push_back(image.name);
+  }
+  WriteFusionConfig(ws, names);
+  // Without maps listed, COLMAP fuses nothing: a clear error, not an empty file.
+  WriteFusionConfig(ws, {});
+  EXPECT_THROW(RunStereoFusion(MvsOptions{}, ws.dir, "geometric", dir / "out/empty.ply", 2), UserError);
+  EXPECT_FALSE(fs::exists(dir / "out/empty.ply"));
+  WriteFusionConfig(ws, names);
+  const size_t points = RunStereoFusion(MvsOptions{}, ws.dir, "geometric", dir / "out/fused.ply", 2);
+  EXPECT_GT(points, 4000u);  // about one per pixel seen by all five views (fusion_min_num_pixels = 5)
+  const TriangleMesh fused = ReadMesh(dir / "out/fused.ply");
+  ASSERT_EQ(fused.num_vertices(), points);
+  ASSERT_EQ(fused.normals.size(), points);
+  const std::vector<double> distances = DistancesToMesh(fused.vertices, scene.mesh);
+  std::printf("fusion of true maps: %zu points, mean distance to the plane %.2e, max %.2e\n", points,
+              Mean(distances), *std::max_element(distances.begin(), distances.end()));
+  EXPECT_LT(Mean(distances), 2e-4);
+  EXPECT_GT(std::abs(fused.normals[0].cast<double>().dot(n_world)), 0.99);
+}
+
+TEST_F(MvsTest, HoleFillingClosesClippedSurfaces) {
+  // A sphere cut flat at z = -0.6, as COLMAP's Poisson box clips unobserved sides: one boundary loop.
+  TriangleMesh sphere = mvs_test::MakeBumpySphere(3);
+  TriangleMesh cut;
+  cut.vertices = sphere.vertices;
+  for (const auto& f : sphere.faces) {
+    if (sphere.vertices[f[0]].z() > -0.6f && sphere.vertices[f[1]].z() > -0.6f && sphere.vertices[f[2]].z() > -0.6f) {
+      cut.faces.push_back(f);
+    }
+  }
+  ASSERT_FALSE(AnalyzeTopology(cut).closed());
+  const size_t faces_before = cut.num_faces();
+  const HoleFillingStats stats = FillHoles(&cut);
+  EXPECT_EQ(stats.holes_filled, 1);
+  EXPECT_EQ(stats.holes_failed, 0);
+  const MeshTopology topology = AnalyzeTopology(cut);
+  EXPECT_TRUE(topology.closed()) << topology.boundary_edges << " boundary edges";
+  EXPECT_EQ(cut.num_faces(), faces_before + stats.faces_added);
+  EXPECT_GT(stats.faces_added, 10u);
+  // A closed mesh is left alone.
+  TriangleMesh closed = mvs_test::MakeBumpySphere(2);
+  EXPECT_EQ(FillHoles(&closed).holes_filled, 0);
+}
+
+TEST_F(MvsTest, BadInputsGiveClearErrors) {
+  testing::TempDir dir;
+  fs::create_directories(dir / "sfm");
+  try {
+    PrepareMvsWorkspace(dir / "sfm", dir / "out");
+    FAIL() << "expected a UserError";
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("dense/images"), std::string::npos) << e.what();
+  }
+  // Debian's COLMAP has no CUDA: engine colmap says so.
+  if (!ColmapHasCuda()) {
+    try {
+      RunColmapPatchMatch(MvsOptions{}, dir.path());
+      FAIL() << "expected a UserError";
+    } catch (const UserError& e) {
+      EXPECT_NE(std::string(e.what()).find("no CUDA"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("mvs.engine: patchmatch"), std::string::npos) << e.what();
+    }
+  }
+  // Cameras that share no sparse points and whose optical axes are parallel (no scene centre for the
+  // pose-only fallback): no image can be a reference.
+  TestScene scene = PlaneScene(0.0);
+  for (auto& [id, image] : scene.model.images) image.points2d.clear();
+  scene.model.points3d.clear();
+  mvs_test::WriteSfmWorkspace(scene, dir / "nopoints");
+  MvsSummary summary;
+  const MvsWorkspace ws = PrepareMvsWorkspace(dir / "nopoints", dir / "out2");
+  try {
+    ComputeDepthMaps(MvsOptions{}, ws, &summary);
+    FAIL() << "expected a UserError";
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("can be a reference image"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("optical axes"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace relight

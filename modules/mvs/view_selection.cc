@@ -1,0 +1,183 @@
+#include "mvs/view_selection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+namespace relight {
+namespace {
+
+double Percentile(std::vector<double> values, double fraction) {
+  const size_t k = std::min(values.size() - 1, static_cast<size_t>(fraction * (values.size() - 1) + 0.5));
+  std::nth_element(values.begin(), values.begin() + k, values.end());
+  return values[k];
+}
+
+constexpr double kPreferredAngleDeg = 15.0;  // pose-only fallback: best triangulation angle at the scene centre
+constexpr double kDepthFactor = 3.0;         // pose-only fallback: depth range = centre depth ÷/× this
+
+// The point closest (least squares) to every camera's optical axis; false when the axes are (nearly) parallel.
+bool AxesCenter(const std::vector<StereoView>& views, Eigen::Vector3d* center) {
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const StereoView& v : views) {
+    const Eigen::Vector3d d = v.R_cam_from_world.row(2).transpose();
+    const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - d * d.transpose();
+    A += P;
+    b += P * v.CenterWorld();
+  }
+  // A is symmetric positive semi-definite; it is singular when all axes are parallel.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(A);
+  const Eigen::Vector3d lambda = eigen.eigenvalues();  // ascending
+  if (!(lambda(0) > 1e-3 * lambda(2))) return false;
+  *center = A.ldlt().solve(b);
+  return true;
+}
+
+// Sources and depth range of view r from the poses alone.
+void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d& center, const MvsOptions& options,
+                     ViewSelection* plan) {
+  const StereoView& ref = views[plan->ref];
+  const double z = (ref.R_cam_from_world * center + ref.t_cam_from_world).z();
+  if (!(z > 0)) {
+    plan->skip_reason = "it does not look at the scene centre (the point nearest to all optical axes)";
+    return;
+  }
+  std::vector<std::pair<double, int>> candidates;  // (|angle - preferred|, source)
+  for (int s = 0; s < static_cast<int>(views.size()); ++s) {
+    if (s == plan->ref) continue;
+    const Eigen::Vector3d x = views[s].R_cam_from_world * center + views[s].t_cam_from_world;
+    if (!(x.z() > 0)) continue;
+    const Eigen::Vector3d p = views[s].K * (x / x.z());
+    if (p.x() < 0 || p.y() < 0 || p.x() > views[s].width || p.y() > views[s].height) continue;
+    const Eigen::Vector3d ra = (ref.CenterWorld() - center).normalized();
+    const Eigen::Vector3d rb = (views[s].CenterWorld() - center).normalized();
+    const double angle = std::acos(std::clamp(ra.dot(rb), -1.0, 1.0)) * 180.0 / M_PI;
+    if (angle < options.min_triangulation_angle_deg || angle > 90.0) continue;
+    candidates.emplace_back(std::abs(angle - kPreferredAngleDeg), s);
+  }
+  std::sort(candidates.begin(), candidates.end());
+  if (static_cast<int>(candidates.size()) > options.max_source_images) candidates.resize(options.max_source_images);
+  for (const auto& [score, s] : candidates) {
+    plan->sources.push_back(s);
+    plan->shared_points.push_back(0);
+    const Eigen::Vector3d ra = (ref.CenterWorld() - center).normalized();
+    const Eigen::Vector3d rb = (views[s].CenterWorld() - center).normalized();
+    plan->median_angle_deg.push_back(std::acos(std::clamp(ra.dot(rb), -1.0, 1.0)) * 180.0 / M_PI);
+  }
+  plan->from_poses = true;
+  plan->depth_min = z / kDepthFactor;
+  plan->depth_max = z * kDepthFactor;
+  if (plan->sources.empty()) {
+    plan->skip_reason = "no other view sees the scene centre under a triangulation angle between " +
+                        std::to_string(options.min_triangulation_angle_deg) + " and 90 deg";
+  }
+}
+
+}  // namespace
+
+std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::vector<StereoView>& views,
+                                       const MvsOptions& options) {
+  const int n = static_cast<int>(views.size());
+  std::map<uint32_t, int> index_of;
+  std::vector<Eigen::Vector3d> centers(n);
+  for (int i = 0; i < n; ++i) {
+    index_of[views[i].image_id] = i;
+    centers[i] = views[i].CenterWorld();
+  }
+  // Triangulation angles of the shared points of every image pair.
+  std::vector<std::map<int, std::vector<double>>> angles(n);
+  std::vector<std::vector<double>> ref_depths(n);
+  const double min_angle = options.min_triangulation_angle_deg;
+  for (const auto& [id, point] : model.points3d) {
+    std::vector<int> track;
+    for (const auto& [image_id, unused] : point.track) {
+      const auto it = index_of.find(image_id);
+      if (it != index_of.end()) track.push_back(it->second);
+    }
+    std::sort(track.begin(), track.end());
+    track.erase(std::unique(track.begin(), track.end()), track.end());
+    for (int a : track) {
+      const double z = (views[a].R_cam_from_world * point.xyz + views[a].t_cam_from_world).z();
+      if (z > 0) ref_depths[a].push_back(z);
+    }
+    for (size_t i = 0; i < track.size(); ++i) {
+      for (size_t j = i + 1; j < track.size(); ++j) {
+        const Eigen::Vector3d ra = (centers[track[i]] - point.xyz).normalized();
+        const Eigen::Vector3d rb = (centers[track[j]] - point.xyz).normalized();
+        const double angle = std::acos(std::clamp(ra.dot(rb), -1.0, 1.0)) * 180.0 / M_PI;
+        if (angle < min_angle) continue;
+        angles[track[i]][track[j]].push_back(angle);
+        angles[track[j]][track[i]].push_back(angle);
+      }
+    }
+  }
+
+  std::vector<ViewSelection> plans(n);
+  if (model.points3d.size() < 3) {
+    // No sparse points (e.g. cameras given as ground truth): choose from the poses.
+    Eigen::Vector3d center;
+    const bool have_center = AxesCenter(views, &center);
+    for (int r = 0; r < n; ++r) {
+      plans[r].ref = r;
+      if (!have_center) {
+        plans[r].skip_reason = "the model has no 3D points and the cameras' optical axes do not meet";
+      } else {
+        SelectFromPoses(views, center, options, &plans[r]);
+      }
+    }
+    return plans;
+  }
+  for (int r = 0; r < n; ++r) {
+    ViewSelection& plan = plans[r];
+    plan.ref = r;
+    // Rank candidates by their usable shared points.
+    std::vector<std::pair<int, int>> candidates;  // (count, source)
+    for (const auto& [s, list] : angles[r]) {
+      if (static_cast<int>(list.size()) >= options.min_shared_points) {
+        candidates.emplace_back(static_cast<int>(list.size()), s);
+      }
+    }
+    std::sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first > b.first : a.second < b.second;
+    });
+    if (static_cast<int>(candidates.size()) > options.max_source_images) candidates.resize(options.max_source_images);
+    for (const auto& [count, s] : candidates) {
+      plan.sources.push_back(s);
+      plan.shared_points.push_back(count);
+      plan.median_angle_deg.push_back(Percentile(angles[r][s], 0.5));
+    }
+    // Depth range: the sparse points this image observes (all points in front and inside as a fallback).
+    std::vector<double> depths = ref_depths[r];
+    if (depths.size() < 10) {
+      depths.clear();
+      const StereoView& v = views[r];
+      for (const auto& [id, point] : model.points3d) {
+        const Eigen::Vector3d x = v.R_cam_from_world * point.xyz + v.t_cam_from_world;
+        if (x.z() <= 0) continue;
+        const Eigen::Vector3d p = v.K * (x / x.z());
+        if (p.x() >= 0 && p.y() >= 0 && p.x() <= v.width && p.y() <= v.height) depths.push_back(x.z());
+      }
+    }
+    plan.num_points = static_cast<int>(depths.size());
+    if (!depths.empty()) {
+      plan.depth_min = Percentile(depths, 0.01) * (1.0 - options.depth_margin);
+      plan.depth_max = Percentile(depths, 0.99) * (1.0 + options.depth_margin);
+      plan.depth_min = std::max(plan.depth_min, 1e-3 * plan.depth_max);
+    }
+    if (plan.sources.empty()) {
+      plan.skip_reason = "no source view shares " + std::to_string(options.min_shared_points) +
+                         " sparse points with it at a triangulation angle of at least " +
+                         std::to_string(options.min_triangulation_angle_deg) + " deg";
+    } else if (depths.size() < 3) {
+      plan.skip_reason = "too few sparse points in front of it to bound the depth range";
+    }
+  }
+  return plans;
+}
+
+}  // namespace relight

@@ -1,0 +1,40 @@
+// Per reference image: which source views to match against and which depths
+// to search, from the sparse SfM model (COLMAP's `__auto__` selection in
+// patch-match.cfg: most shared 3D points seen under a sufficient
+// triangulation angle; depth range from the percentiles of the sparse
+// points' depths, Schönberger et al. 2016 §5).
+//
+// A model without 3D points (cameras given as ground truth) falls back to the
+// poses alone: the point closest to all optical axes is taken as the scene
+// centre, sources are the views that see it under a triangulation angle
+// nearest to `kPreferredAngleDeg`, and the depth range spans a factor of
+// three either side of the centre's depth.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "geometry/reconstruction.h"
+#include "mvs/mvs_options.h"
+#include "mvs/stereo_view.h"
+
+namespace relight {
+
+// The plan for one reference image.
+struct ViewSelection {
+  int ref = -1;                       // index into the views
+  std::vector<int> sources;           // indices into the views, best first
+  std::vector<int> shared_points;     // usable shared sparse points per source
+  std::vector<double> median_angle_deg;  // median triangulation angle of those points per source
+  double depth_min = 0;               // search range of camera z (0 when unknown)
+  double depth_max = 0;
+  int num_points = 0;                 // sparse points the depth range came from
+  bool from_poses = false;            // chosen by the pose-only fallback (no sparse points)
+  std::string skip_reason;            // non-empty: the image cannot be a reference (no sources / no depth range)
+};
+
+// One plan per view (same order). `views` must come from `model` (image_id set).
+std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::vector<StereoView>& views,
+                                       const MvsOptions& options);
+
+}  // namespace relight

@@ -1,0 +1,649 @@
+#include "relight/relight.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+
+#include <tbb/parallel_for.h>
+
+#include "core/error.h"
+#include "core/fs.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "core/timer.h"
+#include "geometry/mesh_io.h"
+#include "geometry/reconstruction.h"
+#include "image/image.h"
+#include "relight/display.h"
+#include "relight/ground_truth_frame.h"
+#include "render/lighting.h"
+#include "render/render_view.h"
+#include "render/rng.h"
+#include "sphere/envmap.h"
+#include "sphere/octahedral.h"
+
+namespace relight {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string Stem(const std::string& name) { return fs::path(name).stem().string(); }
+
+// Random-stream families of the render kinds (independent noise per kind).
+enum KindStream : uint64_t { kRerender = 1, kHeldout = 2, kNovel = 3, kTurntable = 4 };
+
+// One image to make.
+struct Job {
+  RenderRecord record;
+  std::shared_ptr<const Lighting> lighting;  // null for flat images
+  bool background = true;
+  uint64_t stream = 0;      // kind stream
+  uint64_t view_index = 0;  // index within the kind
+  bool flat = false;        // per-vertex colours, no lighting
+  std::vector<Eigen::Vector3f> flat_rgb;
+  bool shared_exposure = false;  // turntable: exposure of the first frame
+};
+
+// A uniform environment of radiance `value` (all directions).
+EnvMap UniformEnv(double value) {
+  Image image(8, 4, 3, static_cast<float>(value));
+  return EnvMap::FromLatLong(image);
+}
+
+std::shared_ptr<const Lighting> EnvLighting(EnvMap env) {
+  return std::make_shared<const Lighting>(Lighting::FromEnvMap(std::move(env)));
+}
+
+// Delta light plus an optional uniform sky of ambient_fraction * E / pi (E = 1 at the object's centre).
+Lighting DeltaLighting(double ambient_fraction) {
+  Lighting l;
+  if (ambient_fraction > 0) {
+    EnvMap env = UniformEnv(ambient_fraction / M_PI);
+    env.PrepareSampling();
+    l.env = std::make_shared<const EnvMap>(std::move(env));
+  }
+  return l;
+}
+
+bool Exists(const std::string& path) { return !path.empty() && fs::is_regular_file(path); }
+
+// Writes the frames (RGB in [0, 1]) as an animated GIF with OpenImageIO (atomic). Returns false when the
+// GIF writer is unavailable.
+bool WriteAnimatedGif(const std::string& path, const std::vector<Image>& frames, double fps) {
+  if (frames.empty()) return false;
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out || !out->supports("multiimage") || !out->supports("appendsubimage")) return false;
+  AtomicFile file(path);
+  const int w = frames[0].width, h = frames[0].height;
+  OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+  const int rate[2] = {static_cast<int>(std::lround(fps * 100)), 100};
+  spec.attribute("FramesPerSecond", OIIO::TypeRational, rate);
+  spec.attribute("oiio:Movie", 1);
+  spec.attribute("oiio:LoopCount", 0);
+  std::vector<OIIO::ImageSpec> specs(frames.size(), spec);
+  if (!out->open(file.temp_path(), static_cast<int>(specs.size()), specs.data())) {
+    RELIGHT_USER_ERROR() << "cannot write '" << path << "': " << out->geterror();
+  }
+  std::vector<uint8_t> bytes(size_t(w) * h * 3);
+  for (size_t k = 0; k < frames.size(); ++k) {
+    RELIGHT_CHECK(frames[k].width == w && frames[k].height == h && frames[k].channels == 3);
+    for (size_t p = 0; p < bytes.size(); ++p)
+      bytes[p] = static_cast<uint8_t>(std::lround(255 * std::clamp(frames[k].pixels[p], 0.0f, 1.0f)));
+    if (k > 0 && !out->open(file.temp_path(), specs[k], OIIO::ImageOutput::AppendSubimage)) {
+      RELIGHT_USER_ERROR() << "cannot append frame " << k << " to '" << path << "': " << out->geterror();
+    }
+    if (!out->write_image(OIIO::TypeDesc::UINT8, bytes.data())) {
+      RELIGHT_USER_ERROR() << "cannot write frame " << k << " of '" << path << "': " << out->geterror();
+    }
+  }
+  out->close();
+  file.Commit();
+  return true;
+}
+
+}  // namespace
+
+RecoveredModel LoadRecoveredModel(const std::string& inverse_dir, const std::string& mesh_dir) {
+  RecoveredModel model;
+  const std::string ply = JoinPath(inverse_dir, "reflectance.ply");
+  const std::string materials = JoinPath(inverse_dir, "materials.json");
+  for (const std::string& path : {ply, materials}) {
+    if (!fs::is_regular_file(path)) {
+      RELIGHT_USER_ERROR() << "the inverse stage's output '" << path
+                           << "' is missing; rerun the inverse stage (pipeline run CONFIG --from inverse)";
+    }
+  }
+  model.mesh = ReadMesh(ply);
+  if (model.mesh.empty()) RELIGHT_USER_ERROR() << "'" << ply << "' holds no triangles; rerun the inverse stage";
+  if (model.mesh.normals.size() != model.mesh.num_vertices()) model.mesh.ComputeVertexNormals();
+  model.reflectance = ReadReflectanceModel(materials);
+  if (model.reflectance.materials.empty() || model.reflectance.basis.empty()) {
+    RELIGHT_USER_ERROR() << "'" << materials << "' has no materials or no basis BRDFs; rerun the inverse stage";
+  }
+  const std::string occluders = mesh_dir.empty() ? "" : JoinPath(mesh_dir, "occluders.ply");
+  if (Exists(occluders)) {
+    model.occluders = ReadMesh(occluders);
+    model.occluders.properties.clear();  // their reflectance is not recovered: grey Lambertian
+    model.occluders.colors.clear();
+    if (model.occluders.normals.size() != model.occluders.num_vertices()) model.occluders.ComputeVertexNormals();
+  }
+  MeshBoundingSphere(model.mesh, &model.center, &model.radius);
+  return model;
+}
+
+std::vector<Scene::Surface> ModelSurfaces(const TriangleMesh& object_mesh, const ReflectanceModel& reflectance,
+                                          const TriangleMesh& occluders, double occluder_albedo) {
+  std::vector<Scene::Surface> surfaces;
+  surfaces.push_back({object_mesh, reflectance, SurfaceRole::kObject});
+  if (!occluders.empty()) {
+    surfaces.push_back(
+        {occluders, LambertianModel(Eigen::Vector3d::Constant(occluder_albedo), "occluder"), SurfaceRole::kOccluder});
+  }
+  return surfaces;
+}
+
+std::vector<char> UnseenOctTexels(const Scene& scene, int n, int max_vertices) {
+  RELIGHT_CHECK(IsPowerOfTwo(n));
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> points;  // position, normal
+  for (int s = 0; s < scene.num_surfaces(); ++s) {
+    if (scene.surface(s).role != SurfaceRole::kObject) continue;
+    const TriangleMesh& mesh = scene.surface(s).mesh;
+    const size_t stride = std::max<size_t>(1, (mesh.num_vertices() + max_vertices - 1) / std::max(1, max_vertices));
+    for (size_t v = 0; v < mesh.num_vertices(); v += stride)
+      points.emplace_back(mesh.vertices[v].cast<double>(), mesh.normals[v].cast<double>());
+  }
+  const double eps = 1e-4 * scene.diagonal();
+  // Where an object touches another surface (resting on the ground), offset ray origins end up behind it and
+  // "see" through it: a texel counts as seen only from a few vertices at least.
+  const int min_seen = std::max(2, int(std::lround(0.002 * points.size())));
+  std::vector<char> seen(size_t(n) * n, 0);
+  tbb::parallel_for(0, n * n, [&](int k) {
+    const int i = k % n, j = k / n;
+    static const double kOffsets[5][2] = {{0, 0}, {-0.35, -0.35}, {0.35, -0.35}, {-0.35, 0.35}, {0.35, 0.35}};
+    std::vector<char> sees(points.size(), 0);
+    int count = 0;
+    for (const auto& o : kOffsets) {
+      const Eigen::Vector3d d = OctDecode(Eigen::Vector2d((i + 0.5 + o[0]) / n, (j + 0.5 + o[1]) / n));
+      for (size_t q = 0; q < points.size(); ++q) {
+        if (sees[q]) continue;
+        const auto& [p, normal] = points[q];
+        // Two-sided surfaces: leave from the side facing the direction.
+        Ray ray;
+        ray.origin = (p + (normal.dot(d) >= 0 ? eps : -eps) * normal).cast<float>();
+        ray.dir = d.cast<float>();
+        if (!scene.caster().Occluded(ray)) {
+          sees[q] = 1;
+          if (++count >= min_seen) {
+            seen[k] = 1;
+            return;
+          }
+        }
+      }
+    }
+  });
+  std::vector<char> unseen(size_t(n) * n, 1);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      if (!seen[size_t(j) * n + i]) continue;
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di) {
+          // One step beyond the border: the neighbour on the sphere (fold rule).
+          const Eigen::Vector2i t = OctWrapTexel(i + di, j + dj, n);
+          unseen[size_t(t.y()) * n + t.x()] = 0;
+        }
+    }
+  return unseen;
+}
+
+Image ZeroTexels(const Image& oct, const std::vector<char>& unseen) {
+  RELIGHT_CHECK_EQ(size_t(oct.width) * oct.height, unseen.size());
+  Image out = oct;
+  for (int j = 0; j < oct.height; ++j)
+    for (int i = 0; i < oct.width; ++i)
+      if (unseen[size_t(j) * oct.width + i])
+        for (int c = 0; c < oct.channels; ++c) out.at(i, j, c) = 0;
+  return out;
+}
+
+Eigen::Vector3f MaterialColor(int m) {
+  // Okabe-Ito colour-blind-safe palette (sRGB), linearised for the flat renders.
+  static const float kSrgb[][3] = {{0.902f, 0.624f, 0.000f}, {0.337f, 0.706f, 0.914f}, {0.000f, 0.620f, 0.451f},
+                                   {0.941f, 0.894f, 0.259f}, {0.000f, 0.447f, 0.698f}, {0.835f, 0.369f, 0.000f},
+                                   {0.800f, 0.475f, 0.655f}, {0.600f, 0.600f, 0.600f}};
+  const float* s = kSrgb[m % 8];
+  Eigen::Vector3f linear;
+  for (int c = 0; c < 3; ++c) linear[c] = s[c] <= 0.04045f ? s[c] / 12.92f : std::pow((s[c] + 0.055f) / 1.055f, 2.4f);
+  if (m >= 8) linear *= 0.5f;  // a second, darker round for more than 8 materials
+  return linear;
+}
+
+std::vector<Eigen::Vector3f> DominantMaterialColors(const TriangleMesh& mesh, int num_materials) {
+  std::vector<const std::vector<float>*> w;
+  for (int m = 0; m < num_materials; ++m) w.push_back(mesh.FindProperty("w" + std::to_string(m)));
+  std::vector<Eigen::Vector3f> rgb(mesh.num_vertices(), MaterialColor(0));
+  for (size_t v = 0; v < mesh.num_vertices(); ++v) {
+    int best = 0;
+    float best_w = -1;
+    for (int m = 0; m < num_materials; ++m) {
+      const float x = w[m] ? (*w[m])[v] : (m == 0 ? 1.0f : 0.0f);
+      if (x > best_w) {
+        best_w = x;
+        best = m;
+      }
+    }
+    rgb[v] = MaterialColor(best);
+  }
+  return rgb;
+}
+
+std::string RelightSummary::BriefReport() const {
+  std::map<std::string, int> per_kind;
+  for (const auto& r : renders) ++per_kind[r.kind];
+  std::ostringstream s;
+  s << renders.size() << " images (";
+  bool first = true;
+  for (const auto& [kind, n] : per_kind) {
+    s << (first ? "" : ", ") << n << " " << kind;
+    first = false;
+  }
+  s << "); rendered " << rendered << ", reused " << reused << "; frame " << frame_method << "; "
+    << Progress::FormatSeconds(seconds);
+  return s.str();
+}
+
+OrderedJson RelightSummary::ToJson() const {
+  OrderedJson j;
+  j["format"] = "relight-renders";
+  j["version"] = 1;
+  j["frame"] = frame_method;
+  j["rendered"] = rendered;
+  j["reused"] = reused;
+  j["seconds"] = seconds;
+  j["turntable_gif"] = turntable_gif;
+  j["notes"] = notes;
+  OrderedJson list = OrderedJson::array();
+  for (const auto& r : renders) {
+    OrderedJson e;
+    e["kind"] = r.kind;
+    e["name"] = r.name;
+    e["view"] = r.view;
+    e["light"] = r.light;
+    e["exr"] = r.exr;
+    e["png"] = r.png;
+    e["mask"] = r.mask;
+    e["exposure"] = r.exposure;
+    e["seconds"] = r.seconds;
+    e["camera"] = CameraToJson(r.camera.camera, r.camera.pose);
+    list.push_back(e);
+  }
+  j["renders"] = list;
+  return j;
+}
+
+std::vector<RenderRecord> ReadRenderIndex(const std::string& relight_dir, std::string* turntable_gif) {
+  const std::string path = JoinPath(relight_dir, "relight_summary.json");
+  if (!fs::is_regular_file(path)) {
+    RELIGHT_USER_ERROR() << "'" << path << "' is missing; rerun the relight stage (pipeline run CONFIG --from relight)";
+  }
+  const Json j = ReadJsonFile(path);
+  if (j.value("format", "") != "relight-renders" || j.value("version", 0) != 1) {
+    RELIGHT_USER_ERROR() << "'" << path << "' is not a version-1 relight render index; rerun the relight stage";
+  }
+  std::vector<RenderRecord> out;
+  for (const auto& e : j.at("renders")) {
+    RenderRecord r;
+    r.kind = e.value("kind", "");
+    r.name = e.value("name", "");
+    r.view = e.value("view", "");
+    r.light = e.value("light", "");
+    r.exr = e.value("exr", "");
+    r.png = e.value("png", "");
+    r.mask = e.value("mask", "");
+    r.exposure = e.value("exposure", 1.0);
+    r.seconds = e.value("seconds", 0.0);
+    r.camera = CameraFromJson(e.at("camera"), path);
+    r.camera.name = r.view;
+    out.push_back(std::move(r));
+  }
+  if (turntable_gif != nullptr) *turntable_gif = j.value("turntable_gif", "");
+  return out;
+}
+
+RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, const std::string& output_dir) {
+  o.Check();
+  Timer total;
+  RelightSummary summary;
+  for (const auto& path : o.envmaps) {
+    if (!fs::is_regular_file(path)) {
+      RELIGHT_USER_ERROR() << "relight.envmaps: '" << path << "' does not exist; install Debian's blender-data "
+                           << "(tools/setup_debian.sh) or list other lat-long HDR maps (relative to the config file)";
+    }
+  }
+  const RecoveredModel model = LoadRecoveredModel(in.inverse_dir, in.mesh_dir);
+  const Scene scene(ModelSurfaces(model.mesh, model.reflectance, model.occluders, o.occluder_albedo),
+                    JoinPath(in.inverse_dir, "reflectance.ply"));
+  RLOG_INFO("model: {} vertices, {} materials over {} basis BRDFs, {} occluder vertices; bounding sphere r = {:.4g}",
+            model.mesh.num_vertices(), model.reflectance.materials.size(), model.reflectance.basis.size(),
+            model.occluders.num_vertices(), model.radius);
+
+  std::vector<Job> jobs;
+  auto add_job = [&](Job job) {
+    const std::string dir = "renders/" + job.record.kind + "/";
+    if (!job.flat) job.record.exr = dir + job.record.name + ".exr";
+    job.record.png = dir + job.record.name + ".png";
+    job.record.mask = dir + job.record.name + "_mask.png";
+    jobs.push_back(std::move(job));
+  };
+
+  // (a) Re-renderings of the input photos under their recovered maps.
+  const std::string lighting_path = JoinPath(in.inverse_dir, "lighting.json");
+  if (o.rerender) {
+    if (!fs::is_regular_file(lighting_path)) {
+      RELIGHT_USER_ERROR() << "'" << lighting_path << "' is missing; rerun the inverse stage";
+    }
+    const std::string sparse = JoinPath(in.sfm_dir, "sparse");
+    if (in.sfm_dir.empty() || !fs::is_directory(sparse)) {
+      RELIGHT_USER_ERROR() << "relight.rerender needs the photos' cameras, but '" << sparse
+                           << "' is missing; run the sfm stage (or set relight.rerender: false)";
+    }
+    const Reconstruction cameras = Reconstruction::Read(sparse);
+    const Json lighting = ReadJsonFile(lighting_path);
+    std::map<int, std::vector<char>> unseen_by_size;  // per map size
+    uint64_t index = 0;
+    for (const auto& p : lighting.at("photos")) {
+      const std::string name = p.at("name").get<std::string>();
+      const ImageRecord* image = cameras.FindImage(name);
+      if (image == nullptr) {
+        summary.notes.push_back("photo '" + name + "' has a recovered map but no camera in " + sparse);
+        continue;
+      }
+      Job job;
+      job.record.kind = "rerender";
+      job.record.name = Stem(name);
+      job.record.view = name;
+      job.record.light = "recovered:" + Stem(name);
+      job.record.camera = {name, cameras.cameras.at(image->camera_id), *image};
+      Camera& camera = job.record.camera.camera;
+      const int longer = std::max(camera.width, camera.height);
+      if (o.rerender_max_size > 0 && longer > o.rerender_max_size) {
+        const double s = double(o.rerender_max_size) / longer;
+        const int w = std::max(1, int(std::lround(camera.width * s))),
+                  h = std::max(1, int(std::lround(camera.height * s)));
+        camera.Rescale(s);
+        camera.width = w;
+        camera.height = h;
+      }
+      const std::string oct = JoinPath(in.inverse_dir, p.at("envmap_oct").get<std::string>());
+      if (!fs::is_regular_file(oct)) RELIGHT_USER_ERROR() << "'" << oct << "' is missing; rerun the inverse stage";
+      Image map = ReadImage(oct);
+      if (o.zero_unseen_light) {
+        auto it = unseen_by_size.find(map.width);
+        if (it == unseen_by_size.end()) it = unseen_by_size.emplace(map.width, UnseenOctTexels(scene, map.width)).first;
+        map = ZeroTexels(map, it->second);
+      }
+      job.lighting = EnvLighting(EnvMap::FromOctahedral(map));
+      job.background = o.background;
+      job.stream = kRerender;
+      job.view_index = index++;
+      add_job(std::move(job));
+    }
+  }
+
+  // (b) Held-out views under held-out maps, in the model's frame.
+  const std::string gt_dir = in.ingest_dir.empty() ? "" : JoinPath(in.ingest_dir, "ground_truth");
+  const std::string heldout_dir = JoinPath(gt_dir, "relight");
+  summary.frame_method = "none";
+  if (o.heldout && !gt_dir.empty() && fs::is_regular_file(JoinPath(heldout_dir, "index.json"))) {
+    const GroundTruthFrame frame = RelateToGroundTruth(in.sfm_dir, gt_dir);
+    if (!frame.available) {
+      summary.notes.push_back("held-out views not rendered: " + frame.reason);
+    } else {
+      summary.frame_method = frame.method;
+      const Reconstruction views = frame.CamerasToModel(Reconstruction::Read(heldout_dir));
+      const Json index = ReadJsonFile(JoinPath(heldout_dir, "index.json"));
+      std::map<std::string, std::shared_ptr<const Lighting>> envs;
+      for (const auto& d : index.at("envmap_details")) {
+        const std::string name = d.at("name").get<std::string>();
+        const EnvMap truth = EnvMap::Load(JoinPath(heldout_dir, d.at("latlong").get<std::string>()));
+        envs[name] = EnvLighting(frame.EnvToModel(truth));
+      }
+      uint64_t k = 0;
+      for (const auto& r : index.at("renders")) {
+        const std::string view = r.at("view").get<std::string>(), env = r.at("envmap").get<std::string>();
+        const ImageRecord* image = views.FindImage(view);
+        if (image == nullptr || !envs.count(env)) {
+          RELIGHT_USER_ERROR() << "'" << JoinPath(heldout_dir, "index.json") << "' names view '" << view << "' or map '"
+                               << env << "' that its cameras/envmaps do not have; regenerate the "
+                               << "ground truth";
+        }
+        Job job;
+        job.record.kind = "heldout";
+        job.record.name = view + "__" + env;
+        job.record.view = view;
+        job.record.light = "heldout:" + env;
+        job.record.camera = {view, views.cameras.at(image->camera_id), *image};
+        job.lighting = envs[env];
+        job.background = true;
+        job.stream = kHeldout;
+        job.view_index = k++;
+        add_job(std::move(job));
+      }
+    }
+  } else if (o.heldout) {
+    summary.notes.push_back("no held-out views: the ground truth has no relight/index.json");
+  }
+
+  // (c) New orbit views under new lights, and flat albedo / material images.
+  std::vector<RenderCamera> orbit;
+  for (int v = 0; v < o.views; ++v) {
+    orbit.push_back(OrbitCamera("view_" + std::to_string(v), model.center, model.radius,
+                                o.view_azimuth_deg + 360.0 * v / o.views, o.view_elevation_deg, o.image_size, o.fov_deg,
+                                o.fill));
+  }
+  std::vector<std::pair<std::string, std::shared_ptr<const Lighting>>> file_lights;
+  {
+    std::set<std::string> used;
+    for (const auto& path : o.envmaps) {
+      std::string name = Stem(path);
+      for (int k = 2; used.count(name); ++k) name = Stem(path) + "_" + std::to_string(k);
+      used.insert(name);
+      file_lights.emplace_back(name, EnvLighting(EnvMap::Load(path)));
+    }
+  }
+  uint64_t novel_index = 0;
+  for (const RenderCamera& view : orbit) {
+    auto add_novel = [&](const std::string& light_name, const std::string& light, std::shared_ptr<const Lighting> l) {
+      Job job;
+      job.record.kind = "novel";
+      job.record.name = view.name + "__" + light_name;
+      job.record.view = view.name;
+      job.record.light = light;
+      job.record.camera = view;
+      job.lighting = std::move(l);
+      job.background = o.background;
+      job.stream = kNovel;
+      job.view_index = novel_index++;
+      add_job(std::move(job));
+    };
+    for (const auto& [name, l] : file_lights) add_novel(name, "envmap:" + name, l);
+    if (o.directional_light) {
+      Lighting l = DeltaLighting(o.ambient_fraction);
+      const double az = (o.view_azimuth_deg + o.directional_azimuth_deg) * M_PI / 180;
+      const double el = o.directional_elevation_deg * M_PI / 180;
+      l.directional.push_back({Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)),
+                               Eigen::Vector3d::Ones()});
+      add_novel("directional", "directional", std::make_shared<const Lighting>(std::move(l)));
+    }
+    if (o.point_light) {
+      Lighting l = DeltaLighting(o.ambient_fraction);
+      const Eigen::Vector3d c = view.pose.ProjectionCenter();
+      const double d = (c - model.center).norm();
+      const Eigen::Vector3d right = view.pose.CamFromWorldRotation().row(0).transpose();
+      const Eigen::Vector3d position = c + 0.35 * d * right + 0.35 * d * Eigen::Vector3d::UnitZ();
+      // Irradiance 1 on a surface at the object's centre facing the light.
+      const double r2 = (position - model.center).squaredNorm();
+      l.points.push_back({position, Eigen::Vector3d::Constant(r2)});
+      add_novel("point", "point", std::make_shared<const Lighting>(std::move(l)));
+    }
+    const std::vector<float>* ar = model.mesh.FindProperty("albedo_r");
+    const std::vector<float>* ag = model.mesh.FindProperty("albedo_g");
+    const std::vector<float>* ab = model.mesh.FindProperty("albedo_b");
+    if (ar && ag && ab) {
+      Job job;
+      job.record.kind = "albedo";
+      job.record.name = view.name;
+      job.record.view = view.name;
+      job.record.light = "none";
+      job.record.camera = view;
+      job.flat = true;
+      for (size_t v = 0; v < model.mesh.num_vertices(); ++v) job.flat_rgb.emplace_back((*ar)[v], (*ag)[v], (*ab)[v]);
+      add_job(std::move(job));
+    }
+    Job job;
+    job.record.kind = "material";
+    job.record.name = view.name;
+    job.record.view = view.name;
+    job.record.light = "none";
+    job.record.camera = view;
+    job.flat = true;
+    job.flat_rgb = DominantMaterialColors(model.mesh, int(model.reflectance.materials.size()));
+    add_job(std::move(job));
+  }
+
+  // (d) Turntable.
+  if (o.turntable_frames > 0) {
+    std::shared_ptr<const Lighting> light;
+    std::string light_name;
+    if (o.turntable_light == "first_envmap" && !file_lights.empty()) {
+      light = file_lights[0].second;
+      light_name = "envmap:" + file_lights[0].first;
+    } else {
+      for (const auto& j : jobs)
+        if (j.record.kind == "rerender") {
+          light = j.lighting;
+          light_name = j.record.light;
+          break;
+        }
+    }
+    if (!light) {
+      summary.notes.push_back(
+          "no turntable: no environment map (relight.envmaps is empty and no photo was re-rendered)");
+    } else {
+      for (int f = 0; f < o.turntable_frames; ++f) {
+        char name[32];
+        std::snprintf(name, sizeof(name), "frame_%03d", f);
+        Job job;
+        job.record.kind = "turntable";
+        job.record.name = name;
+        job.record.view = name;
+        job.record.light = light_name;
+        job.record.camera =
+            OrbitCamera(name, model.center, model.radius, o.view_azimuth_deg + 360.0 * f / o.turntable_frames,
+                        o.view_elevation_deg, o.turntable_size, o.fov_deg, o.fill);
+        job.lighting = light;
+        job.background = o.background;
+        job.stream = kTurntable;
+        job.view_index = uint64_t(f);
+        job.shared_exposure = true;
+        add_job(std::move(job));
+      }
+    }
+  }
+
+  // Render what is missing.
+  for (const auto& dir : {"rerender", "heldout", "novel", "albedo", "material", "turntable"})
+    EnsureDir(JoinPath(output_dir, std::string("renders/") + dir));
+  auto done = [&](const Job& job) {
+    return (job.flat || Exists(JoinPath(output_dir, job.record.exr))) && Exists(JoinPath(output_dir, job.record.png)) &&
+           Exists(JoinPath(output_dir, job.record.mask));
+  };
+  RenderOptions base;
+  base.pixel_samples_per_axis = o.pixel_samples_per_axis;
+  base.light_samples = o.light_samples;
+  base.brdf_samples = o.brdf_samples;
+  int64_t tiles = 0;
+  for (const auto& job : jobs)
+    if (!job.flat && !done(job)) tiles += NumTiles(job.record.camera.camera, base);
+  double turntable_exposure = -1;
+  {
+    Progress progress("relight renders", std::max<int64_t>(tiles, 1));
+    for (Job& job : jobs) {
+      RenderRecord& r = job.record;
+      const std::string exr = JoinPath(output_dir, r.exr), png = JoinPath(output_dir, r.png),
+                        mask_path = JoinPath(output_dir, r.mask);
+      if (job.flat) {
+        Image mask;
+        const Image rgb = RenderVertexColors(scene.caster(), 0, job.flat_rgb, r.camera.camera, r.camera.pose,
+                                             Eigen::Vector3f::Constant(0.18f), &mask);
+        // Albedo is shown as is (1 = white) unless it exceeds 1 (gauge), then like a render.
+        r.exposure = r.kind == "albedo" ? std::min(1.0, PercentileExposure(rgb, &mask, 99.5)) : 1.0;
+        WritePng(mask_path, mask);
+        WritePng(png, ToneMapSrgb(rgb, r.exposure));
+        continue;
+      }
+      Image radiance, mask;
+      if (done(job)) {
+        radiance = ReadImage(exr);
+        mask = ReadMask(mask_path);
+        ++summary.reused;
+      } else {
+        RenderOptions ro = base;
+        ro.background = job.background;
+        ro.seed = MixSeed(uint64_t(o.seed), job.stream);
+        const RenderedView view =
+            RenderView(scene, *job.lighting, r.camera.camera, r.camera.pose, ro, job.view_index, &progress);
+        radiance = view.radiance;
+        mask = view.mask;
+        r.seconds = view.seconds;
+        WriteExr(exr, radiance);
+        WritePng(mask_path, mask);
+        ++summary.rendered;
+      }
+      double exposure = PercentileExposure(radiance, CountMask(mask) > 0 ? &mask : nullptr, o.tonemap_percentile);
+      if (job.shared_exposure) {
+        if (turntable_exposure < 0) turntable_exposure = exposure;
+        exposure = turntable_exposure;
+      }
+      r.exposure = exposure;
+      if (!Exists(png) || r.seconds > 0) WritePng(png, ToneMapSrgb(radiance, exposure));
+      LogFileOnly(fmt::format("{}/{}: {}x{}, light {}, {:.2f} s", r.kind, r.name, r.camera.camera.width,
+                              r.camera.camera.height, r.light, r.seconds));
+    }
+  }
+
+  // Turntable animation.
+  std::vector<Image> frames;
+  for (const Job& job : jobs)
+    if (job.record.kind == "turntable") frames.push_back(ReadImage(JoinPath(output_dir, job.record.png)));
+  if (!frames.empty()) {
+    for (auto& f : frames)
+      if (f.channels != 3) {
+        Image rgb(f.width, f.height, 3);
+        for (int y = 0; y < f.height; ++y)
+          for (int x = 0; x < f.width; ++x)
+            for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = f.at(x, y, std::min(c, f.channels - 1));
+        f = rgb;
+      }
+    const std::string gif = "renders/turntable/turntable.gif";
+    if (WriteAnimatedGif(JoinPath(output_dir, gif), frames, o.turntable_fps)) {
+      summary.turntable_gif = gif;
+    } else {
+      summary.notes.push_back("OpenImageIO cannot write animated GIFs here: the turntable is its PNG frames only");
+    }
+  }
+
+  for (auto& job : jobs) summary.renders.push_back(std::move(job.record));
+  summary.seconds = total.Seconds();
+  WriteJsonAtomic(JoinPath(output_dir, "relight_summary.json"), summary.ToJson());
+  for (const auto& note : summary.notes) RLOG_INFO("note: {}", note);
+  RLOG_INFO("relight: {}", summary.BriefReport());
+  return summary;
+}
+
+}  // namespace relight

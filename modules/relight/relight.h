@@ -1,0 +1,114 @@
+// The `relight` stage: renders the recovered model — the mesh with the
+// per-vertex material weights and materials of the `inverse` stage, plus
+// <mesh>/occluders.ply as shadow casters — with the project's Monte Carlo
+// renderer (render/render_view.h, the conventions of the synthetic
+// generator), under
+//   (a) each input photo's recovered environment map, from that photo's camera
+//       (re-renderings, scored by `evaluate`);
+//   (b) the ground truth's held-out environment maps, from its held-out views,
+//       both brought into the model's frame (relight/ground_truth_frame.h);
+//   (c) HDR environment map files, a directional and a point light, from new
+//       orbit cameras, plus flat albedo and dominant-material images;
+//   (d) a turntable (frames on an orbit and an animated GIF).
+//
+// Output folder (docs/FORMATS.md):
+//   renders/<kind>/<name>.exr   linear RGB radiance (float)
+//   renders/<kind>/<name>.png   tone-mapped (relight/display.h), 8-bit sRGB
+//   renders/<kind>/<name>_mask.png  object mask (255 where the pixel-centre ray first hits the object)
+//   renders/turntable/frame_NNN.{exr,png}, renders/turntable/turntable.gif
+//   relight_summary.json        index of every image with its camera and light (RelightIndex below)
+// Every image is written atomically; a rerun in the same folder renders only what is missing.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "brdf/brdf.h"
+#include "core/json.h"
+#include "geometry/mesh.h"
+#include "relight/relight_options.h"
+#include "relight/views.h"
+#include "render/scene.h"
+
+namespace relight {
+
+// The model the inverse stage recovered.
+struct RecoveredModel {
+  TriangleMesh mesh;             // <inverse>/reflectance.ply: positions, normals, w0…, albedo_r/g/b
+  ReflectanceModel reflectance;  // <inverse>/materials.json
+  TriangleMesh occluders;        // <mesh>/occluders.ply without properties; empty when absent
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();  // bounding sphere of the object
+  double radius = 1;
+};
+
+// Reads the model; throws UserError naming the missing or broken file and what to rerun.
+RecoveredModel LoadRecoveredModel(const std::string& inverse_dir, const std::string& mesh_dir);
+
+// Renderer surfaces: the object (role kObject) with `reflectance` (weights w0… of `object_mesh`), then the
+// occluders (kOccluder) as grey Lambertian of `occluder_albedo`.
+std::vector<Scene::Surface> ModelSurfaces(const TriangleMesh& object_mesh, const ReflectanceModel& reflectance,
+                                          const TriangleMesh& occluders, double occluder_albedo);
+
+// Texels of an n x n octahedral environment map from which the scene's object surfaces receive no light:
+// from all but a handful of the sampled object vertices (at most `max_vertices`, evenly strided; fewer than
+// max(2, 0.2%) may see it, for contact points whose offset rays start behind the ground), the rays towards
+// the texel's centre and four inner points (±0.35 texel) are blocked by the scene; then dilated by one texel
+// so bilinear lookups in every direction that is seen never touch them. 1 = unseen.
+std::vector<char> UnseenOctTexels(const Scene& scene, int n, int max_vertices = 2000);
+
+// A copy of an octahedral RGB map with the `unseen` texels set to 0. The inverse stage has no data on them
+// (no observation's transport reaches them), and zeroing them leaves the expected radiance of every object
+// pixel unchanged while it stops the renderer's light sampling from wasting samples on them (the extrapolated
+// lower hemisphere under a ground plane is often the brightest part of a recovered map).
+Image ZeroTexels(const Image& oct, const std::vector<char>& unseen);
+
+// Per-vertex colour of the dominant material (largest weight), from a fixed qualitative palette.
+std::vector<Eigen::Vector3f> DominantMaterialColors(const TriangleMesh& mesh, int num_materials);
+// The palette colour (linear RGB) of material m.
+Eigen::Vector3f MaterialColor(int m);
+
+// One image the stage wrote.
+struct RenderRecord {
+  std::string kind;   // rerender, heldout, novel, albedo, material, turntable
+  std::string name;   // unique within the kind: photo stem, "<view>__<envmap>", "<view>__<light>", ...
+  std::string view;   // photo name (rerender), held-out view name, orbit camera name
+  std::string light;  // "recovered:<stem>", "heldout:<envmap>", "envmap:<file stem>", "directional", "point", "none"
+  std::string exr;    // relative to the stage folder; empty for flat images
+  std::string png;
+  std::string mask;
+  RenderCamera camera;  // intrinsics and pose in the model's frame
+  double exposure = 1;  // of the PNG (relight/display.h)
+  double seconds = 0;   // 0 when reused from an earlier, killed run
+};
+
+struct RelightSummary {
+  std::vector<RenderRecord> renders;
+  int rendered = 0;                // images rendered by this run
+  int reused = 0;                  // images already present (an earlier run was killed)
+  std::string frame_method;        // ground-truth frame relation (relight/ground_truth_frame.h) or "none"
+  std::string turntable_gif;       // relative path; empty when none
+  std::vector<std::string> notes;  // what was skipped and why
+  double seconds = 0;
+
+  // One paragraph for the log.
+  std::string BriefReport() const;
+  // relight_summary.json: {"format": "relight-renders", "version": 1, "renders": [...], ...}.
+  OrderedJson ToJson() const;
+};
+
+// Reads <relight>/relight_summary.json (throws UserError naming it when missing or malformed).
+std::vector<RenderRecord> ReadRenderIndex(const std::string& relight_dir, std::string* turntable_gif = nullptr);
+
+// Upstream folders of the stage.
+struct RelightInputs {
+  std::string ingest_dir;   // optional: ground truth for held-out renders
+  std::string sfm_dir;      // cameras of the photos (sparse/)
+  std::string mesh_dir;     // occluders.ply
+  std::string inverse_dir;  // reflectance.ply, materials.json, lighting.json, envmaps/
+};
+
+// Runs the stage into `output_dir` (which exists).
+RelightSummary RunRelight(const RelightOptions& options, const RelightInputs& inputs, const std::string& output_dir);
+
+}  // namespace relight

@@ -1,0 +1,39 @@
+// The `report` stage: one self-contained HTML page (index.html) that shows
+// what the pipeline recovered and how good it is, for synthetic scenes and
+// real collections alike:
+//   the metrics table (metrics.json of `evaluate`, copied beside the page);
+//   the input photos beside their re-renderings and error heat maps;
+//   the recovered environment maps (octahedral and lat-long) beside the true ones;
+//   the albedo and dominant material on the mesh (beside the true albedo), with a legend;
+//   held-out views relit under held-out maps; the model under new lights; a turntable;
+//   convergence curves of the inverse solve, leave-one-photo-out scores, stage timings.
+// Every image the page shows is copied into the report folder (images/), every
+// chart is an SVG drawn by gnuplot from a CSV beside it (charts/, report/charts.h);
+// all paths in the page are relative and nothing is fetched from the network.
+// An inline script checks on load that every image decoded and records the
+// result in the page (element #selfcheck, attribute data-status = ok | fail),
+// which the headless-browser test reads.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "report/report_options.h"
+
+namespace relight {
+
+struct ReportSummary {
+  int images = 0;                  // images copied into the report folder and shown
+  int charts = 0;                  // charts drawn
+  std::vector<std::string> notes;  // sections left out and why; chart failures
+  double seconds = 0;
+};
+
+// Writes index.html, metrics.json (when `evaluate` ran), images/ and charts/ into `output_dir` from the
+// upstream stage folders in `inputs` (stage name -> folder; any subset of ingest, sfm, mesh, linearize,
+// observe, inverse, relight, evaluate).
+ReportSummary RunReport(const ReportOptions& options, const std::map<std::string, std::string>& inputs,
+                        const std::string& output_dir);
+
+}  // namespace relight
