@@ -2,7 +2,7 @@
 // with the vectorised NCC cost against the plain-loop reference of the same
 // cost (ncc_cost.h) measured in the same run, on a synthetic scene (a
 // textured bumpy sphere, 12 views on two rings, default options: 8 source
-// views, window radius 5 step 2, 4 photometric iterations).
+// views, window radius 5 step 2, 3 photometric iterations).
 //
 //   build-mvs/bin/mvs_benchmark [--size=640] [--threads=2]
 //

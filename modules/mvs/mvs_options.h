@@ -41,7 +41,7 @@ struct MvsOptions {
   double filter_geom_max_error_px = 1.0;       // ... its reprojection error is at most this (geometric pass) ...
   double filter_min_triangulation_angle_deg = 2.0;  // ... and it sees the point under at least this angle.
   int filter_min_num_consistent = 2;           // Pixels supported by fewer source views are removed.
-  int filter_min_segment_px = 20;              // Connected depth segments smaller than this are removed (0: off).
+  int filter_min_segment_px = 20;              // Connected depth segments (steps < 2%) smaller than this are removed (0: off).
   // --- fusion (colmap stereo_fusion)
   int fusion_min_num_pixels = 5;           // Pixels (views) a fused point needs.
   double fusion_max_reproj_error_px = 2.0;  // Reprojection error for a pixel to join a point.
@@ -104,7 +104,7 @@ struct MvsOptions {
            "Depth-map pixels supported by fewer source views are removed.")
         .Min(1);
     t->Add("filter_min_segment_px", &filter_min_segment_px,
-           "Connected depth-map segments (depth jumps < 1%) smaller than this are removed; 0 disables.")
+           "Connected depth-map segments (4-neighbours within 2% in depth) smaller than this are removed; 0 disables.")
         .Min(0);
     t->Add("fusion_min_num_pixels", &fusion_min_num_pixels,
            "colmap stereo_fusion: pixels that must agree on a fused point.")
