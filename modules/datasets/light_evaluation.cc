@@ -92,6 +92,8 @@ LightEvaluation EvaluateDirectionalLights(const std::string& inverse_dir, const 
     const Image oct = ReadImage(JoinPath(inverse_dir, p.at("envmap_oct").get<std::string>()));
     const Eigen::Vector3d dir = BrightestLobeDirection(oct);
     e.photos.push_back(name);
+    e.direction_world.push_back(dir);
+    e.true_direction_world.push_back(it->second->direction_world);
     e.angle_error_deg.push_back(std::acos(std::clamp(dir.dot(it->second->direction_world), -1.0, 1.0)) * 180 / M_PI);
     e.power_rgb.push_back(OctahedralPower(oct));
     e.true_rgb.push_back(it->second->intensity_rgb);

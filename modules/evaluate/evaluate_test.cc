@@ -140,6 +140,26 @@ TEST(EnvMapMetrics, MissingLowerHemisphereClosedForm) {
   EXPECT_THROW(CompareEnvMaps(Image(16, 16, 3), truth, false), UserError);
 }
 
+// A reconstruction that includes the ground the object stands on: against the
+// object alone the ground samples are gross errors; with the true ground as
+// context, only the estimate around the object counts, and the 0.1 offset of
+// the sphere shell is what remains.
+TEST(SurfaceDistance, ReconstructedGroundIsNotAnErrorWithGroundContext) {
+  const TriangleMesh truth = render_testing::Icosphere(1.0, Eigen::Vector3d(0, 0, 1), 5);
+  const TriangleMesh ground = render_testing::Plane(10, 0, 20);
+  TriangleMesh estimate = render_testing::Icosphere(1.1, Eigen::Vector3d(0, 0, 1), 5);
+  estimate.Append(render_testing::Plane(10, 0, 20));
+  const MeshDistances without = CompareMeshes(estimate, truth, 20000);
+  EXPECT_GT(without.accuracy_mean, 1.0);  // most of the estimate's area is far-away ground
+  const MeshDistances with = CompareMeshes(estimate, truth, 20000, 1, &ground);
+  // Inside the box, the ground patch is exact (0) and the shell is 0.1 off: mean in (0, 0.1].
+  EXPECT_GT(with.accuracy_mean, 0.03);
+  EXPECT_LE(with.accuracy_mean, 0.1 + 1e-3);
+  // Completeness: 0.1 to the shell, a little less near the bottom where the estimate's ground is closer.
+  EXPECT_GT(with.completeness_mean, 0.09);
+  EXPECT_LE(with.completeness_mean, 0.1 + 1e-3);
+}
+
 TEST(SurfaceDistance, ConcentricSpheresAndInterpolation) {
   // Spheres of radius 1 and 1.1 (icospheres, 5 subdivisions: the faces lie within 2e-4 of the sphere).
   const TriangleMesh inner = render_testing::Icosphere(1.0, Eigen::Vector3d::Zero(), 5);

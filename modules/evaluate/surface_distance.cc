@@ -1,5 +1,7 @@
 #include "evaluate/surface_distance.h"
 
+#include <memory>
+
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
@@ -101,18 +103,39 @@ std::vector<Eigen::Vector3d> SampleSurfaceUniform(const TriangleMesh& mesh, size
   return points;
 }
 
-MeshDistances CompareMeshes(const TriangleMesh& estimate, const TriangleMesh& truth, size_t samples, uint64_t seed) {
+MeshDistances CompareMeshes(const TriangleMesh& estimate, const TriangleMesh& truth, size_t samples, uint64_t seed,
+                            const TriangleMesh* truth_context) {
   MeshDistances d;
   d.samples = samples;
   d.diagonal = truth.BoundingBox().diagonal().norm();
   const SurfaceIndex truth_index(truth), estimate_index(estimate);
-  auto distances = [&](const std::vector<Eigen::Vector3d>& points, const SurfaceIndex& index) {
+  std::unique_ptr<SurfaceIndex> context_index;
+  if (truth_context != nullptr && truth_context->num_faces() > 0) {
+    context_index = std::make_unique<SurfaceIndex>(*truth_context);
+  }
+  auto distances = [&](const std::vector<Eigen::Vector3d>& points, const SurfaceIndex& index,
+                       const SurfaceIndex* also) {
     std::vector<double> out(points.size());
-    tbb::parallel_for(size_t(0), points.size(), [&](size_t k) { out[k] = index.Query(points[k]).distance; });
+    tbb::parallel_for(size_t(0), points.size(), [&](size_t k) {
+      out[k] = index.Query(points[k]).distance;
+      if (also != nullptr) out[k] = std::min(out[k], also->Query(points[k]).distance);
+    });
     return out;
   };
-  std::vector<double> acc = distances(SampleSurfaceUniform(estimate, samples, seed), truth_index);
-  std::vector<double> comp = distances(SampleSurfaceUniform(truth, samples, seed + 1), estimate_index);
+  std::vector<Eigen::Vector3d> estimate_points = SampleSurfaceUniform(estimate, samples, seed);
+  if (context_index) {
+    // Only the estimate around the object counts; the ground it stands on is true surface too.
+    Eigen::AlignedBox3d box = truth.BoundingBox().cast<double>();
+    box.min().array() -= 0.1 * d.diagonal;
+    box.max().array() += 0.1 * d.diagonal;
+    std::vector<Eigen::Vector3d> inside;
+    for (const Eigen::Vector3d& p : estimate_points) {
+      if (box.contains(p)) inside.push_back(p);
+    }
+    estimate_points = std::move(inside);
+  }
+  std::vector<double> acc = distances(estimate_points, truth_index, context_index.get());
+  std::vector<double> comp = distances(SampleSurfaceUniform(truth, samples, seed + 1), estimate_index, nullptr);
   auto mean = [](const std::vector<double>& v) {
     double s = 0;
     for (double x : v) s += x;

@@ -162,6 +162,9 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
   std::vector<Observation> slots(mesh.num_vertices());
   std::vector<uint8_t> valid(mesh.num_vertices(), 0);
   tbb::parallel_for(size_t(0), mesh.num_vertices(), [&](size_t v) {
+    // A vertex in no face (scanned meshes such as the Stanford bunny have a few)
+    // is no surface point: no area, no meaningful normal. It is never observed.
+    if (!(footprint_radius[v] > 0)) return;
     const Eigen::Vector3d x = mesh.vertices[v].cast<double>();
     const Eigen::Vector3d n = mesh.normals[v].cast<double>();
     const Eigen::Vector3d to_camera = center - x;

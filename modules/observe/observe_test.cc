@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 #include "core/error.h"
@@ -9,6 +12,8 @@
 #include "core/json.h"
 #include "core/log.h"
 #include "geometry/mesh_io.h"
+#include "render/render_view.h"
+#include "render/test_scenes.h"
 #include "sphere/frame.h"
 #include "testing/testing.h"
 
@@ -94,6 +99,102 @@ TEST_F(ObserveTest, ColourViewDirectionAndConfidenceOnAPlane) {
   int full = 0;
   for (const Observation& o : obs) full += o.confidence > 0.999f;
   EXPECT_GT(full, 150);
+}
+
+// The measurement the solver fits is the rendered radiance: render a glossy,
+// two-coloured sphere on a shadowing ground under a sky with a sun-like spot
+// with the project's Monte Carlo renderer, observe it through the same camera,
+// and compare each well-seen vertex's observed colour with an independent
+// estimate of that vertex's exitant radiance towards the camera
+// (VertexRadiance). They differ by Monte Carlo noise (both sides) and by the
+// footprint averaging of curved shading (a few percent on this coarse sphere,
+// docs/SYNTHETIC.md): median relative error ≤ 3%, 90th percentile ≤ 9%, and
+// no bias (channel sums within 1%). Measured: median 2.1%, 90th percentile
+// 6.5% over ~500 vertices (seed 1).
+TEST_F(ObserveTest, ObservedColourEqualsRenderedRadiance) {
+  TriangleMesh sphere = render_testing::Icosphere(1.0, Eigen::Vector3d(0, 0, 1.0), 4);
+  const int nv = static_cast<int>(sphere.vertices.size());
+  std::vector<float> w0(nv), w1(nv);
+  for (int v = 0; v < nv; ++v) {  // two materials in bands around the sphere
+    w0[v] = 0.5f + 0.5f * std::sin(4.0f * sphere.vertices[v].z());
+    w1[v] = 1.0f - w0[v];
+  }
+  sphere.Property("w0") = w0;
+  sphere.Property("w1") = w1;
+  ReflectanceModel model;
+  BrdfLobe phong;
+  phong.model = BrdfModel::kPhong;
+  phong.exponent = 20;
+  model.basis = {BrdfLobe(), phong};
+  model.materials = {{"red", {Eigen::Vector3d(0.7, 0.2, 0.1), Eigen::Vector3d(0.3, 0.3, 0.3)}},
+                     {"blue", {Eigen::Vector3d(0.1, 0.3, 0.6), Eigen::Vector3d(0.0, 0.0, 0.0)}}};
+  Scene scene({{sphere, model},
+               {render_testing::Plane(6, 0, 8), LambertianModel(Eigen::Vector3d::Constant(0.4)),
+                SurfaceRole::kOccluder}});
+  Image sky(64, 32, 3);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const float up = y < 16 ? 1.0f - y / 16.0f : 0.0f;
+      for (int c = 0; c < 3; ++c) sky.at(x, y, c) = 0.05f + 0.4f * up * (c == 2 ? 1.0f : 0.6f);
+      if (std::abs(x - 20) <= 1 && std::abs(y - 8) <= 1) {
+        for (int c = 0; c < 3; ++c) sky.at(x, y, c) = 60.0f;  // a small sun 22 degrees high
+      }
+    }
+  const Lighting lighting = Lighting::FromEnvMap(EnvMap::FromLatLong(sky));
+  const Camera camera = Camera::Pinhole(1, 200, 160, 220, 220, 100, 80);
+  const ImageRecord pose = LookAt({3.5, -4.0, 3.0});
+  RenderOptions render;
+  render.light_samples = 32;
+  render.brdf_samples = 32;
+  const RenderedView view = RenderView(scene, lighting, camera, pose, render);
+  const Image confidence(camera.width, camera.height, 1, 1.0f);
+  PhotoView photo{camera, pose, &view.radiance, &confidence};
+  const std::vector<Observation> obs =
+      ObservePhoto(scene.surface(0).mesh, VertexFootprintRadius(scene.surface(0).mesh), scene.caster(), photo, 0,
+                   options_);
+  ASSERT_GT(obs.size(), 120u);
+  std::vector<double> rel_error;
+  Eigen::Vector3d sum_observed = Eigen::Vector3d::Zero(), sum_truth = Eigen::Vector3d::Zero();
+  for (const Observation& o : obs) {
+    if (o.confidence < 0.9f) continue;
+    const Eigen::Vector3d x = sphere.vertices[o.vertex].cast<double>();
+    const RadianceEstimate truth =
+        VertexRadiance(scene, lighting, 0, static_cast<int>(o.vertex), (pose.ProjectionCenter() - x).normalized(),
+                       render, 16);
+    const Eigen::Vector3d observed(o.rgb[0], o.rgb[1], o.rgb[2]);
+    rel_error.push_back((observed - truth.mean).norm() / std::max(truth.mean.norm(), 1e-3));
+    sum_observed += observed;
+    sum_truth += truth.mean;
+  }
+  // No systematic difference (scale, colour, footprint bias): channel sums agree to 1%.
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(sum_observed[c] / sum_truth[c], 1.0, 0.01) << "channel " << c;
+  ASSERT_GT(rel_error.size(), 60u);
+  std::sort(rel_error.begin(), rel_error.end());
+  const double median = rel_error[rel_error.size() / 2];
+  const double p90 = rel_error[rel_error.size() * 9 / 10];
+  EXPECT_LE(median, 0.03) << "90th percentile " << p90 << " over " << rel_error.size() << " vertices";
+  EXPECT_LE(p90, 0.09) << "median " << median;
+  RecordProperty("median_relative_error", std::to_string(median));
+  RecordProperty("p90_relative_error", std::to_string(p90));
+  std::printf("observed vs rendered radiance over %zu vertices: median %.4f, 90th percentile %.4f\n",
+              rel_error.size(), median, p90);
+}
+
+// A vertex in no face (scanned meshes carry a few) has no area and no real
+// normal: it must never be observed, or the solver fits it freely.
+TEST_F(ObserveTest, VertexInNoFaceIsNeverObserved) {
+  TriangleMesh grid = Grid(11);
+  grid.vertices.emplace_back(0.05f, 0.05f, 0.0f);  // on the plane, in front of the camera, in no face
+  grid.normals.emplace_back(0.0f, 0.0f, 1.0f);
+  const RayCaster caster({&grid});
+  const Image radiance = AffineImage(160, 120);
+  const Image confidence(160, 120, 1, 1.0f);
+  PhotoView view{camera_, LookAt({0.3, -0.2, 3.0}), &radiance, &confidence};
+  const std::vector<float> footprint = VertexFootprintRadius(grid);
+  EXPECT_EQ(footprint.back(), 0.0f);
+  const auto obs = ObservePhoto(grid, footprint, caster, view, 0, options_);
+  EXPECT_GT(obs.size(), 60u);
+  for (const Observation& o : obs) EXPECT_NE(o.vertex, grid.num_vertices() - 1);
 }
 
 TEST_F(ObserveTest, OccludedAndBackFacingVerticesAreNeverObserved) {

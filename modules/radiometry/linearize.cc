@@ -33,6 +33,7 @@ LinearImage Linearize(const Image& encoded, bool is_float, const LinearizeOption
   out.radiance = Image(encoded.width, encoded.height, 3);
   Image bad(encoded.width, encoded.height, 1, 0.0f);
   long clipped = 0, black = 0;
+  std::vector<std::pair<int, int>> black_pixels;  // kept with black_confidence
   for (int y = 0; y < encoded.height; ++y) {
     for (int x = 0; x < encoded.width; ++x) {
       bool is_clipped = false, is_black = false;
@@ -51,7 +52,8 @@ LinearImage Linearize(const Image& encoded, bool is_float, const LinearizeOption
       }
       clipped += is_clipped;
       black += is_black;
-      if (is_clipped || is_black) bad.at(x, y) = 1.0f;
+      if (is_clipped || (is_black && o.black_confidence <= 0)) bad.at(x, y) = 1.0f;
+      if (!is_clipped && is_black && o.black_confidence > 0) black_pixels.push_back({x, y});
     }
   }
   const double n = double(encoded.width) * encoded.height;
@@ -72,6 +74,11 @@ LinearImage Linearize(const Image& encoded, bool is_float, const LinearizeOption
         }
       }
     }
+  }
+  // Kept black pixels (black_confidence > 0) away from clipped ones get their own confidence.
+  for (const auto& [x, y] : black_pixels) {
+    float& c = out.confidence.at(x, y);
+    c = std::min(c, static_cast<float>(o.black_confidence));
   }
   return out;
 }

@@ -17,6 +17,7 @@ struct LinearizeOptions {
   double gamma = 2.2;                 // Exponent when transfer = gamma.
   double saturation_level = 0.98;     // Encoded value at or above which a channel counts as clipped.
   double black_level = 0.004;         // Encoded value at or below which a channel counts as black-clipped.
+  double black_confidence = 0.0;      // Confidence of black-clipped pixels (0: distrusted like over-exposed ones).
   int clip_dilation_px = 1;           // Also distrust pixels this close to a clipped pixel (blooming, JPEG ringing).
   bool normalize_exposure = true;     // Bring photos to a common scale with EXIF exposure when every photo has it.
 
@@ -30,8 +31,14 @@ struct LinearizeOptions {
            "Encoded value (0..1) at or above which a channel counts as over-exposed; such pixels get confidence 0.")
         .Range(0.5, 1.0);
     t->Add("black_level", &black_level,
-           "Encoded value (0..1) at or below which a channel counts as black-clipped; such pixels get confidence 0.")
+           "Encoded value (0..1) at or below which a channel counts as black-clipped; such pixels get confidence "
+           "linearize.black_confidence.")
         .Range(0.0, 0.2);
+    t->Add("black_confidence", &black_confidence,
+           "Confidence of black-clipped pixels. 0 distrusts them like over-exposed ones (Internet photos: crushed "
+           "shadows hide their true value); 1 keeps them as measurements of 'no light' (linear raw data, where an "
+           "attached shadow is real darkness and its error is at most black_level).")
+        .Range(0.0, 1.0);
     t->Add("clip_dilation_px", &clip_dilation_px,
            "Pixels within this distance of a clipped pixel also get confidence 0 (blooming, JPEG ringing).")
         .Range(0, 16);

@@ -39,6 +39,15 @@ TEST(LinearizeTest, ClippedAndBlackPixelsGetZeroConfidence) {
   EXPECT_EQ(lin.confidence.at(7, 7), 0.0f);
   EXPECT_NEAR(lin.clipped_fraction, 0.01, 1e-12);
   EXPECT_NEAR(lin.radiance.at(5, 5, 0), SrgbToLinear(0.5), 1e-6);
+  // Kept black pixels (linear raw data): their own confidence, no dilation; clipped pixels still win.
+  o.black_confidence = 0.5;
+  img.at(3, 2, 2) = 0.0f;  // black, beside the saturated pixel
+  const LinearImage kept = Linearize(img, false, o);
+  EXPECT_EQ(kept.confidence.at(7, 7), 0.5f);
+  EXPECT_EQ(kept.confidence.at(8, 8), 1.0f);
+  EXPECT_EQ(kept.confidence.at(3, 2), 0.0f);
+  EXPECT_EQ(kept.radiance.at(7, 7, 0), 0.0f);
+  o.black_confidence = 0.0;
   o.transfer = "gamma";
   EXPECT_NEAR(Linearize(img, false, o).radiance.at(5, 5, 0), std::pow(0.5, 2.2), 1e-6);
   o.transfer = "linear";

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <random>
 
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "core/progress.h"
 #include "core/timer.h"
 #include "geometry/mesh_io.h"
 #include "image/image.h"
@@ -141,7 +143,9 @@ std::string DescribeSpec(const ModelSpec& spec, const std::vector<BrdfLobe>& bas
   return std::to_string(spec.materials) + " materials, " + lobes + ", env " + std::to_string(res) + "²";
 }
 
-AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec) {
+// `progress_label`: when non-empty, a progress bar (with ETA) over the
+// iterations and one info line per iteration; model-selection candidates run quietly.
+AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, const std::string& progress_label = "") {
   const InverseOptions& o = ctx.o;
   const ObservationSet& obs = ctx.problem.observations;
   const size_t nv = ctx.problem.mesh.num_vertices();
@@ -183,6 +187,8 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec) {
   // Alternating least squares converges slowly along the bilinear valley; an
   // extrapolated step along the last update (Bro 1998, "line search" ALS) is
   // tried after every iteration and kept when it lowers the objective.
+  std::unique_ptr<Progress> progress;
+  if (!progress_label.empty()) progress = std::make_unique<Progress>(progress_label, spec.max_iterations);
   for (int iter = 0; iter < spec.max_iterations; ++iter) {
     IterationRecord rec;
     rec.iteration = iter + 1;
@@ -247,8 +253,14 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec) {
       ResidualStats(obs, ctx.holdout, hr, reflectance, &hs, &hw);
       rec.holdout_rmse = std::sqrt(hs / std::max(1e-30, hw));
     }
-    RLOG_DEBUG("iteration {}: train RMSE {:.5g}, held-out RMSE {:.5g} (lighting {:.1f} s, reflectance {:.1f} s)",
-               rec.iteration, rec.train_rmse, rec.holdout_rmse, rec.lighting_seconds, rec.reflectance_seconds);
+    if (progress) {
+      RLOG_INFO("iteration {}: train RMSE {:.5g}, held-out RMSE {:.5g} (lighting {:.1f} s, reflectance {:.1f} s)",
+                rec.iteration, rec.train_rmse, rec.holdout_rmse, rec.lighting_seconds, rec.reflectance_seconds);
+      progress->Advance();
+    } else {
+      RLOG_DEBUG("iteration {}: train RMSE {:.5g}, held-out RMSE {:.5g} (lighting {:.1f} s, reflectance {:.1f} s)",
+                 rec.iteration, rec.train_rmse, rec.holdout_rmse, rec.lighting_seconds, rec.reflectance_seconds);
+    }
     result.iterations.push_back(rec);
     const double score = ctx.holdout.empty() ? rec.train_rmse : rec.holdout_rmse;
     if (score < result.best_score) {
@@ -419,11 +431,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
     RLOG_INFO("model selection chose {} ({:.1f} s)", summary.chosen_model, summary.selection_seconds);
   }
 
-  AlternationResult final_result = Alternate(ctx, spec);
-  for (const auto& rec : final_result.iterations) {
-    RLOG_INFO("iteration {}: train RMSE {:.5g}, held-out RMSE {:.5g} (lighting {:.1f} s, reflectance {:.1f} s)",
-              rec.iteration, rec.train_rmse, rec.holdout_rmse, rec.lighting_seconds, rec.reflectance_seconds);
-  }
+  AlternationResult final_result = Alternate(ctx, spec, "alternation");
   result.lighting = std::move(final_result.lighting);
   result.reflectance = std::move(final_result.reflectance);
   summary.iterations = std::move(final_result.iterations);

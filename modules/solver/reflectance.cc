@@ -176,10 +176,19 @@ void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t
   const std::vector<float> previous = smoothness > 0 ? state->weights : std::vector<float>();
   std::vector<uint32_t> first, items;
   GroupByVertex(observations, train, nv, &first, &items);
+  // Normal equations per vertex (m_count² + m_count doubles each), then the
+  // smoothness weight relative to the *typical* vertex's data term (the median
+  // of the per-vertex mean diagonals): a vertex with little data (seen only in
+  // shadow or at grazing angles) is then held by its neighbours instead of
+  // fitting noise with huge weights.
+  std::vector<Eigen::MatrixXd> gs(nv);
+  std::vector<Eigen::VectorXd> hs(nv);
   tbb::parallel_for(size_t(0), nv, [&](size_t v) {
     if (first[v] == first[v + 1]) return;
-    Eigen::MatrixXd g = Eigen::MatrixXd::Zero(m_count, m_count);
-    Eigen::VectorXd h = Eigen::VectorXd::Zero(m_count);
+    Eigen::MatrixXd& g = gs[v];
+    Eigen::VectorXd& h = hs[v];
+    g = Eigen::MatrixXd::Zero(m_count, m_count);
+    h = Eigen::VectorXd::Zero(m_count);
     Eigen::VectorXd u(m_count);
     for (uint32_t q = first[v]; q < first[v + 1]; ++q) {
       const uint32_t k = items[q];
@@ -195,13 +204,29 @@ void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t
         h += ob.confidence * ob.rgb[c] * u;
       }
     }
+  });
+  double typical_scale = 0;
+  {
+    std::vector<double> diag;
+    for (size_t v = 0; v < nv; ++v) {
+      if (gs[v].size() > 0) diag.push_back(gs[v].diagonal().mean());
+    }
+    if (!diag.empty()) {
+      std::nth_element(diag.begin(), diag.begin() + diag.size() / 2, diag.end());
+      typical_scale = diag[diag.size() / 2];
+    }
+  }
+  tbb::parallel_for(size_t(0), nv, [&](size_t v) {
+    if (first[v] == first[v + 1]) return;
+    Eigen::MatrixXd& g = gs[v];
+    Eigen::VectorXd& h = hs[v];
     const double scale = std::max(1e-30, g.diagonal().maxCoeff());
     g.diagonal().array() += 1e-9 * scale;
     const double beta = sparsity * std::max(0.0, h.maxCoeff());
     Eigen::VectorXd q = h.array() - beta;
     if (smoothness > 0 && neighbours != nullptr && !(*neighbours)[v].empty()) {
-      // Jacobi step of the neighbour coupling, relative to the data term's scale.
-      const double mu = smoothness * g.diagonal().mean();
+      // Jacobi step of the neighbour coupling, relative to the typical data term's scale.
+      const double mu = smoothness * std::max(typical_scale, g.diagonal().mean());
       const auto& nb = (*neighbours)[v];
       g.diagonal().array() += mu * nb.size();
       for (uint32_t u : nb)

@@ -5,7 +5,8 @@
 
 int main(int argc, char** argv) {
   using namespace relight;
-  return StageMain<IngestOptions>(argc, argv, kIngestStage, [](const IngestOptions& options, const StageContext& ctx) {
+  return StageMain<IngestOptions>(argc, argv, kIngestStage, [](const IngestOptions& given, const StageContext& ctx) {
+    IngestOptions options = given;
     std::string photos = options.images;
     std::string ground_truth = options.ground_truth;
     if (ctx.HasInput("synthesize")) {
@@ -22,6 +23,10 @@ int main(int argc, char** argv) {
       ImportDiligent(photos, scene, {options.diligent_sphere_subdivisions, 100.0});
       photos = JoinPath(scene, "images");
       if (ground_truth.empty()) ground_truth = JoinPath(scene, "ground_truth");
+      // Calibrated photometric data: one view under different known lights. The photos are
+      // nearly achromatic on a dark background and may look alike; every one of them is used.
+      options.drop_grayscale = false;
+      options.drop_duplicates = false;
     }
     if (photos.empty()) {
       RELIGHT_USER_ERROR() << "no photos: set ingest.images to the folder of downloaded photos "
