@@ -1,10 +1,18 @@
 // The whole chain on the CI scene (issue 10): `pipeline run
 // configs/synthetic_tiny.yaml` renders a 20-photo collection with ground
 // truth, then runs sfm -> mvs -> mesh -> linearize -> visibility -> observe ->
-// inverse -> relight -> evaluate -> report as subprocesses. The test checks the
-// camera, mesh and relighting accuracy in report/metrics.json against ranges
-// (measured values and margins below), that a second run reruns nothing, and
-// that a changed solver option reuses everything before `inverse`.
+// inverse -> relight -> evaluate -> report as subprocesses (about 4 minutes on
+// an idle 2-core machine). The test checks the camera, mesh and relighting
+// accuracy in report/metrics.json against ranges, that a second run reruns
+// nothing, and that a changed solver option reuses everything before `inverse`.
+//
+// Measured on 2026-11-22 (docs/RESULTS.md, "The whole chain"): rotation
+// 0.10 deg, centre 0.38% of the scene radius, mesh Chamfer 1.0% of the object's
+// diagonal, sun direction 1.4 deg, relighting 18 dB and re-rendering 20 dB
+// (scale-invariant HDR-PSNR on the object's pixels). The bounds: the issue-8
+// camera targets; Chamfer 2%; light direction 10 deg; PSNR 3 dB under the
+// measured values (Monte Carlo noise of relight and synthesize, COLMAP's
+// non-deterministic fusion).
 //
 // Set RELIGHT_CHAIN_WORKSPACE to keep the workspace (and reuse it across runs).
 #include <gtest/gtest.h>
@@ -59,9 +67,11 @@ TEST(ChainIntegrationTest, SyntheticTinyEndToEndIsAccurateAndCached) {
   // Mesh from our MVS + Poisson + CGAL clean-up against the true object.
   ASSERT_TRUE(m.contains("mesh")) << m.dump(2);
   EXPECT_LE(m["mesh"]["chamfer_relative"].get<double>(), 0.02);
+  // Lighting: the brightest direction of the recovered maps against the truth's (sunny photos).
+  EXPECT_LE(m["light_dir_error_deg"].get<double>(), 10.0);
   // Relighting: held-out views under held-out light, and the input photos re-rendered.
-  EXPECT_GE(m["relight_psnr_db"].get<double>(), 14.0);
-  EXPECT_GE(m["rerender_psnr_db"].get<double>(), 14.0);
+  EXPECT_GE(m["relight_psnr_db"].get<double>(), 15.0);
+  EXPECT_GE(m["rerender_psnr_db"].get<double>(), 17.0);
   EXPECT_TRUE(fs::exists(ws + "/report/index.html"));
   std::printf("chain metrics: rotation %.3f deg, centre %.4f, chamfer %.4f, relight %.2f dB, rerender %.2f dB\n",
               m["cameras"]["median_rotation_deg"].get<double>(),

@@ -47,7 +47,14 @@ std::vector<std::string> SplitList(std::string text) {
   if (Trim(text).empty()) return out;
   std::stringstream ss(text);
   std::string item;
-  while (std::getline(ss, item, ',')) out.push_back(Trim(item));
+  while (std::getline(ss, item, ',')) {
+    item = Trim(item);
+    // YAML flow-list items may be quoted ("phong:500" or 'phong:500'), as in a config file.
+    if (item.size() >= 2 && (item.front() == '"' || item.front() == '\'') && item.back() == item.front()) {
+      item = item.substr(1, item.size() - 2);
+    }
+    out.push_back(item);
+  }
   return out;
 }
 

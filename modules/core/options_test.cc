@@ -100,6 +100,12 @@ TEST(OptionsTest, TextOverrides) {
   OptionTable t = MakeOptionTable("demo", &o);
   t.ApplyText("rgb", "0.1,0.2,0.3", "--set");
   EXPECT_EQ(o.rgb, (std::vector<double>{0.1, 0.2, 0.3}));
+  // Quoted items as in a YAML flow list lose their quotes.
+  t.ApplyText("maps", "[a.hdr, \"b c.exr\", 'd.exr']", "--set");
+  ASSERT_EQ(o.maps.size(), 3u);
+  EXPECT_EQ(o.maps[1].substr(o.maps[1].size() - 7), "b c.exr");
+  EXPECT_EQ(o.maps[2].substr(o.maps[2].size() - 5), "d.exr");
+  EXPECT_EQ(o.maps[2].find('\''), std::string::npos);
   EXPECT_THROW(t.ApplyText("nope", "1", "--set"), UserError);
 }
 

@@ -10,31 +10,13 @@
 #include <cmath>
 
 #include "core/log.h"
+#include "render/test_scenes.h"
 #include "observe/observe.h"
 
 namespace relight {
 namespace {
 
-// A bumpy height field of side x side vertices (100,489 for side 317), normals up.
-TriangleMesh Terrain(int side) {
-  TriangleMesh m;
-  for (int j = 0; j < side; ++j) {
-    for (int i = 0; i < side; ++i) {
-      const float x = -1 + 2.0f * i / (side - 1), y = -1 + 2.0f * j / (side - 1);
-      const float z = 0.15f * std::sin(7 * x) * std::cos(5 * y) + 0.1f * std::sin(13 * x * y);
-      m.vertices.emplace_back(x, y, z);
-    }
-  }
-  for (int j = 0; j + 1 < side; ++j) {
-    for (int i = 0; i + 1 < side; ++i) {
-      const int a = j * side + i;
-      m.faces.emplace_back(a, a + 1, a + side + 1);
-      m.faces.emplace_back(a, a + side + 1, a + side);
-    }
-  }
-  m.ComputeVertexNormals();
-  return m;
-}
+using render_testing::Terrain;
 
 // Camera at `center` looking at the origin.
 ImageRecord LookAt(const Eigen::Vector3d& center) {

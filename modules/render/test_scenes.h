@@ -1,4 +1,4 @@
-// Small closed-form geometry shared by the renderer's tests and benchmark (not part of the library).
+// Small closed-form geometry shared by tests and benchmarks (not part of the library).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -63,6 +63,26 @@ inline TriangleMesh Plane(double half, double z, int cells = 1) {
       mesh.faces.emplace_back(a, c, d);
     }
   return mesh;
+}
+
+// A bumpy height field over [-1,1]^2 with side x side vertices (100,489 for
+// side 317): real self-occlusion for the visibility and observation benchmarks.
+inline TriangleMesh Terrain(int side) {
+  TriangleMesh m;
+  for (int j = 0; j < side; ++j)
+    for (int i = 0; i < side; ++i) {
+      const float x = -1 + 2.0f * i / (side - 1), y = -1 + 2.0f * j / (side - 1);
+      const float z = 0.15f * std::sin(7 * x) * std::cos(5 * y) + 0.1f * std::sin(13 * x * y);
+      m.vertices.emplace_back(x, y, z);
+    }
+  for (int j = 0; j + 1 < side; ++j)
+    for (int i = 0; i + 1 < side; ++i) {
+      const int a = j * side + i;
+      m.faces.emplace_back(a, a + 1, a + side + 1);
+      m.faces.emplace_back(a, a + side + 1, a + side);
+    }
+  m.ComputeVertexNormals();
+  return m;
 }
 
 }  // namespace relight::render_testing
