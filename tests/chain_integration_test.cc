@@ -7,12 +7,12 @@
 // nothing, and that a changed solver option reuses everything before `inverse`.
 //
 // Measured on 2026-11-22 (docs/RESULTS.md, "The whole chain"): rotation
-// 0.10 deg, centre 0.38% of the scene radius, mesh Chamfer 1.0% of the object's
-// diagonal, sun direction 1.4 deg, relighting 18 dB and re-rendering 20 dB
-// (scale-invariant HDR-PSNR on the object's pixels). The bounds: the issue-8
-// camera targets; Chamfer 2%; light direction 10 deg; PSNR 3 dB under the
-// measured values (Monte Carlo noise of relight and synthesize, COLMAP's
-// non-deterministic fusion).
+// 0.10-0.14 deg, centre 0.38-0.45% of the scene radius, mesh Chamfer 1.0% of
+// the object's diagonal, sun direction 1.4-2.1 deg, relighting 18.1 dB and
+// re-rendering 18.7 dB (scale-invariant HDR-PSNR on the object's pixels). The
+// bounds: the issue-8 camera targets; Chamfer 2%; light direction 10 deg; PSNR
+// about 3 dB under the measured values (Monte Carlo noise of relight and
+// synthesize, COLMAP's non-deterministic matching and fusion).
 //
 // Set RELIGHT_CHAIN_WORKSPACE to keep the workspace (and reuse it across runs).
 #include <gtest/gtest.h>
@@ -71,7 +71,7 @@ TEST(ChainIntegrationTest, SyntheticTinyEndToEndIsAccurateAndCached) {
   EXPECT_LE(m["light_dir_error_deg"].get<double>(), 10.0);
   // Relighting: held-out views under held-out light, and the input photos re-rendered.
   EXPECT_GE(m["relight_psnr_db"].get<double>(), 15.0);
-  EXPECT_GE(m["rerender_psnr_db"].get<double>(), 17.0);
+  EXPECT_GE(m["rerender_psnr_db"].get<double>(), 16.0);
   EXPECT_TRUE(fs::exists(ws + "/report/index.html"));
   std::printf("chain metrics: rotation %.3f deg, centre %.4f, chamfer %.4f, relight %.2f dB, rerender %.2f dB\n",
               m["cameras"]["median_rotation_deg"].get<double>(),
