@@ -1,8 +1,11 @@
 #include "mvs/mvs_evaluation.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <sstream>
+#include <vector>
 
 #include "core/error.h"
 #include "core/fs.h"
@@ -40,8 +43,13 @@ OrderedJson MvsEvaluation::ToJson() const {
   j["map_type"] = map_type;
   j["diagonal"] = diagonal;
   j["alignment_scale"] = scale;
-  j["mean_depth_completeness"] = mean_depth_completeness;
-  j["min_depth_completeness"] = min_depth_completeness;
+  j["mean_depth_completeness_object_range"] = mean_depth_completeness;
+  j["min_depth_completeness_object_range"] = min_depth_completeness;
+  j["mean_depth_completeness_scene_range"] = mean_depth_completeness_scene;
+  j["min_depth_completeness_scene_range"] = min_depth_completeness_scene;
+  j["mean_missing"] = mean_missing;
+  j["mean_completeness_interior_object_range"] = mean_completeness_interior;
+  j["mean_completeness_edge_object_range"] = mean_completeness_edge;
   j["fused_points_in_box"] = fused_points;
   j["fused_accuracy"] = fused_accuracy;
   j["fused_completeness"] = fused_completeness;
@@ -55,9 +63,16 @@ OrderedJson MvsEvaluation::ToJson() const {
   for (const auto& v : views) {
     list.push_back({{"name", v.name},
                     {"object_pixels", v.object_pixels},
-                    {"completeness", v.completeness},
+                    {"object_depth_range", v.object_depth_range},
+                    {"scene_depth_range", v.scene_depth_range},
+                    {"completeness_object_range", v.completeness},
+                    {"completeness_scene_range", v.completeness_scene},
                     {"missing", v.missing},
-                    {"median_error_of_range", v.median_error}});
+                    {"edge_fraction", v.edge_fraction},
+                    {"completeness_interior_object_range", v.completeness_interior},
+                    {"completeness_edge_object_range", v.completeness_edge},
+                    {"median_error_of_object_range", v.median_error},
+                    {"median_signed_error_of_object_range", v.median_signed_error}});
   }
   j["views"] = list;
   return j;
@@ -66,8 +81,12 @@ OrderedJson MvsEvaluation::ToJson() const {
 std::string MvsEvaluation::BriefReport() const {
   std::ostringstream s;
   s.precision(3);
-  s << "depth maps (" << map_type << "): completeness mean " << mean_depth_completeness << ", min "
-    << min_depth_completeness << " over " << views.size() << " views\n";
+  s << "depth maps (" << map_type << ", " << views.size() << " views): completeness within 1% of the object's "
+    << "depth range mean " << mean_depth_completeness << ", min " << min_depth_completeness
+    << "; of the scene's depth range mean " << mean_depth_completeness_scene << ", min "
+    << min_depth_completeness_scene << "\n";
+  s << "depth maps: object pixels without depth " << mean_missing << "; completeness (object range) inside "
+    << mean_completeness_interior << ", at silhouettes/depth edges " << mean_completeness_edge << "\n";
   s << "fused: " << fused_points << " points in the object's box, accuracy " << fused_accuracy
     << ", completeness " << fused_completeness << ", mean distance " << fused_mean_distance / diagonal
     << " of the diagonal\n";
@@ -110,8 +129,10 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
   for (const auto& [id, est_image] : estimate.images) {
     const ImageRecord* true_image = truth.FindImage(est_image.name);
     if (true_image == nullptr) continue;
-    std::string type = "geometric";
-    if (!fs::exists(stereo + "/depth_maps/" + est_image.name + ".geometric.bin")) type = "photometric";
+    std::string type = options.map_type;
+    if (type.empty()) {
+      type = fs::exists(stereo + "/depth_maps/" + est_image.name + ".geometric.bin") ? "geometric" : "photometric";
+    }
     const std::string depth_path = stereo + "/depth_maps/" + est_image.name + "." + type + ".bin";
     const std::string true_depth_path = JoinPath(ground_truth_dir, "depth/" + Stem(est_image.name) + ".exr");
     if (!fs::exists(depth_path) || !fs::exists(true_depth_path)) continue;
@@ -140,24 +161,56 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
       if (!(true_depth.at(x, y) > 0)) return false;
       return mask.empty() || mask.at(x, y, 0) > 0.5f;
     };
-    float lo = 1e30f, hi = 0;
+    float lo = 1e30f, hi = 0, scene_lo = 1e30f, scene_hi = 0;
     for (int y = 0; y < true_depth.height; ++y) {
       for (int x = 0; x < true_depth.width; ++x) {
-        if (is_object(x, y)) lo = std::min(lo, true_depth.at(x, y)), hi = std::max(hi, true_depth.at(x, y));
+        const float d = true_depth.at(x, y);
+        if (d > 0) scene_lo = std::min(scene_lo, d), scene_hi = std::max(scene_hi, d);
+        if (is_object(x, y)) lo = std::min(lo, d), hi = std::max(hi, d);
       }
     }
     ViewDepthScore score;
     score.name = est_image.name;
     if (!(hi > lo)) continue;
+    score.object_depth_range = hi - lo;
+    score.scene_depth_range = scene_hi - scene_lo;
     const double tolerance = options.depth_tolerance * (hi - lo);
+    const double tolerance_scene = options.depth_tolerance * (scene_hi - scene_lo);
+    // Silhouette/edge band: object pixels near a non-object pixel or a true depth step.
+    const int W = true_depth.width, H = true_depth.height;
+    std::vector<uint8_t> edge_seed(size_t(W) * H, 0), edge(size_t(W) * H, 0);
+    for (int y = 0; y < H; ++y) {
+      for (int x = 0; x < W; ++x) {
+        if (!is_object(x, y)) {
+          edge_seed[size_t(y) * W + x] = 1;
+          continue;
+        }
+        const float d = true_depth.at(x, y);
+        if ((x + 1 < W && is_object(x + 1, y) && std::abs(true_depth.at(x + 1, y) - d) > 0.02f * d) ||
+            (y + 1 < H && is_object(x, y + 1) && std::abs(true_depth.at(x, y + 1) - d) > 0.02f * d)) {
+          edge_seed[size_t(y) * W + x] = 1;
+        }
+      }
+    }
+    const int band = std::max(0, options.edge_band_px);
+    for (int y = 0; y < H; ++y) {
+      for (int x = 0; x < W; ++x) {
+        if (!edge_seed[size_t(y) * W + x]) continue;
+        for (int yy = std::max(0, y - band); yy <= std::min(H - 1, y + band); ++yy) {
+          for (int xx = std::max(0, x - band); xx <= std::min(W - 1, x + band); ++xx) edge[size_t(yy) * W + xx] = 1;
+        }
+      }
+    }
     const Eigen::Matrix3d true_world_from_cam = true_view.R_cam_from_world.transpose();
     const Eigen::Vector3d true_center = true_view.CenterWorld();
-    size_t good = 0, missing = 0;
-    std::vector<double> errors;
+    size_t good = 0, good_scene = 0, missing = 0, edge_pixels = 0, good_edge = 0;
+    std::vector<double> errors, signed_errors;
     for (int y = 0; y < true_depth.height; ++y) {
       for (int x = 0; x < true_depth.width; ++x) {
         if (!is_object(x, y)) continue;
         ++score.object_pixels;
+        const bool on_edge = edge[size_t(y) * W + x] != 0;
+        edge_pixels += on_edge;
         // The true point of this pixel, seen from our (aligned) camera.
         const Eigen::Vector3d ray_true_cam =
             true_camera.NormalizedFromImage(Eigen::Vector2d(x + 0.5, y + 0.5)).homogeneous();
@@ -168,15 +221,31 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
           const Eigen::Vector3d p = est_view.K * (X_est / X_est.z());
           const int col = static_cast<int>(std::floor(p.x())), row = static_cast<int>(std::floor(p.y()));
           if (col >= 0 && row >= 0 && col < map.width && row < map.height && map.depth[map.index(col, row)] > 0) {
-            // Our point on the same pixel, back in the true frame, depth along the true camera's axis.
-            const Eigen::Vector3d ray_est = est_view.K.inverse() * Eigen::Vector3d(col + 0.5, row + 0.5, 1.0);
-            const Eigen::Vector3d Y_est_world = est_view.R_cam_from_world.transpose() *
-                                                (ray_est * map.depth[map.index(col, row)] - est_view.t_cam_from_world);
+            // Our point on the ray through the true point: our pixel's plane intersected with that ray, else
+            // (a plane seen edge-on) the pixel centre's point. The centre lies up to half a pixel beside the
+            // ray wherever our pixel grid is not the true one (smaller maps, undistorted image sizes), which on
+            // a slanted surface is a depth error of the scoring, not of the map.
+            const size_t k = map.index(col, row);
+            const Eigen::Vector3d ray_center = est_view.K.inverse() * Eigen::Vector3d(col + 0.5, row + 0.5, 1.0);
+            Eigen::Vector3d Y_est_cam = ray_center * map.depth[k];
+            if (options.intersect_planes) {
+              const Eigen::Vector3d n = map.normal_cam[k].cast<double>();
+              const Eigen::Vector3d ray = est_view.K.inverse() * Eigen::Vector3d(p.x(), p.y(), 1.0);
+              const double denom = n.dot(ray);
+              if (denom < -1e-3) {
+                const double t = n.dot(Y_est_cam) / denom;
+                if (t > 0.5 * map.depth[k] && t < 2.0 * map.depth[k]) Y_est_cam = t * ray;
+              }
+            }
+            const Eigen::Vector3d Y_est_world =
+                est_view.R_cam_from_world.transpose() * (Y_est_cam - est_view.t_cam_from_world);
             const double z = (true_view.R_cam_from_world * true_from_est.Apply(Y_est_world) +
                               true_view.t_cam_from_world).z();
             const double error = std::abs(z - true_depth.at(x, y));
             errors.push_back(error / (hi - lo));
-            if (error <= tolerance) ++good;
+            signed_errors.push_back((z - true_depth.at(x, y)) / (hi - lo));
+            if (error <= tolerance) ++good, good_edge += on_edge;
+            if (error <= tolerance_scene) ++good_scene;
             found = true;
           }
         }
@@ -185,15 +254,27 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
     }
     if (score.object_pixels == 0) continue;
     score.completeness = double(good) / score.object_pixels;
+    score.completeness_scene = double(good_scene) / score.object_pixels;
     score.missing = double(missing) / score.object_pixels;
+    score.edge_fraction = double(edge_pixels) / score.object_pixels;
+    const size_t interior_pixels = score.object_pixels - edge_pixels;
+    score.completeness_interior = interior_pixels > 0 ? double(good - good_edge) / interior_pixels : 0.0;
+    score.completeness_edge = edge_pixels > 0 ? double(good_edge) / edge_pixels : 0.0;
     score.median_error = Median(errors);
+    score.median_signed_error = Median(signed_errors);
     result.views.push_back(score);
   }
   if (!result.views.empty()) {
-    result.min_depth_completeness = 1;
+    result.min_depth_completeness = result.min_depth_completeness_scene = 1;
+    const double n = double(result.views.size());
     for (const auto& v : result.views) {
-      result.mean_depth_completeness += v.completeness / result.views.size();
+      result.mean_depth_completeness += v.completeness / n;
       result.min_depth_completeness = std::min(result.min_depth_completeness, v.completeness);
+      result.mean_depth_completeness_scene += v.completeness_scene / n;
+      result.min_depth_completeness_scene = std::min(result.min_depth_completeness_scene, v.completeness_scene);
+      result.mean_missing += v.missing / n;
+      result.mean_completeness_interior += v.completeness_interior / n;
+      result.mean_completeness_edge += v.completeness_edge / n;
     }
   }
 

@@ -2,9 +2,13 @@
 // (docs/FORMATS.md, "Ground truth folder") with the metrics of issue 9:
 //
 //  - per view, depth completeness: the fraction of the object's pixels whose
-//    depth is within `depth_tolerance` of the view's true depth range
-//    (object pixels: ground_truth/masks/<stem>.png when present, else every
-//    pixel with a true depth);
+//    depth is within `depth_tolerance` of a depth range (object pixels:
+//    ground_truth/masks/<stem>.png when present, else every pixel with a true
+//    depth), with two ranges: the view's true depth range over the object
+//    (the stricter figure), and over the whole scene, i.e. every pixel with a
+//    true depth, ground and blockers included (issue 9's wording, "1% of the
+//    scene depth range"); plus where the rest goes (no depth, wrong depth,
+//    near silhouettes and depth edges or inside);
 //  - fused points: accuracy (fraction within `accuracy_threshold` of the true
 //    surfaces) and completeness (fraction of object surface samples within
 //    `completeness_threshold` of a fused point), thresholds as fractions of the
@@ -28,7 +32,13 @@ namespace relight {
 
 // Thresholds of the evaluation.
 struct MvsEvaluationOptions {
-  double depth_tolerance = 0.01;         // of each view's true depth range over the object
+  double depth_tolerance = 0.01;         // of each view's true depth range (over the object; over the scene)
+  std::string map_type;                  // maps scored: empty = geometric if present, else photometric; or a type
+                                         // such as geometric_unfiltered (mvs_workspace.h) for diagnosis
+  bool intersect_planes = true;          // compare along the true point's ray (our pixel's plane intersected with
+                                         // it) rather than at our pixel centre (up to half a pixel beside it)
+  int edge_band_px = 3;                  // object pixels this close (true image pixels, Chebyshev) to a non-object
+                                         // pixel or a true depth step > 2% count as silhouette/edge pixels
   double accuracy_threshold = 0.005;     // of the object's bounding-box diagonal
   double completeness_threshold = 0.01;  // of the object's bounding-box diagonal
   double crop_margin = 0.1;              // bounding-box growth (of the diagonal) that counts as the object
@@ -39,9 +49,16 @@ struct MvsEvaluationOptions {
 struct ViewDepthScore {
   std::string name;
   size_t object_pixels = 0;       // pixels of the object in the view
-  double completeness = 0;        // fraction of them within the tolerance
+  double object_depth_range = 0;  // max - min true depth over the object's pixels
+  double scene_depth_range = 0;   // max - min true depth over every pixel with a true depth
+  double completeness = 0;        // fraction of the object's pixels within tolerance × object_depth_range
+  double completeness_scene = 0;  // fraction of the object's pixels within tolerance × scene_depth_range
   double missing = 0;             // fraction of them without a depth
+  double edge_fraction = 0;       // fraction of them in the silhouette/edge band
+  double completeness_interior = 0;  // completeness (object range) over the pixels outside the band
+  double completeness_edge = 0;      // ... inside the band
   double median_error = 0;        // median |error| / true depth range over object pixels with a depth
+  double median_signed_error = 0; // median (ours - true) / true depth range (a bias shows here)
 };
 
 // All scores (lengths in the ground truth's units).
@@ -50,8 +67,13 @@ struct MvsEvaluation {
   double diagonal = 0;            // of the true object's bounding box
   double scale = 1;               // of the similarity that aligned the reconstruction
   std::vector<ViewDepthScore> views;
-  double mean_depth_completeness = 0;
+  double mean_depth_completeness = 0;        // tolerance: of the view's depth range over the object
   double min_depth_completeness = 0;
+  double mean_depth_completeness_scene = 0;  // tolerance: of the view's depth range over the scene (issue 9)
+  double min_depth_completeness_scene = 0;
+  double mean_missing = 0;                   // object pixels without a depth
+  double mean_completeness_interior = 0;     // object range, outside / inside the edge band
+  double mean_completeness_edge = 0;
   size_t fused_points = 0;        // inside the object's box
   double fused_accuracy = 0;
   double fused_completeness = 0;

@@ -594,6 +594,10 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
         ++summary.reused;
       } else {
         RenderOptions ro = base;
+        if (r.kind == "heldout" || r.kind == "rerender") {  // scored by evaluate
+          ro.light_samples = std::max(ro.light_samples, o.scored_samples);
+          ro.brdf_samples = std::max(ro.brdf_samples, o.scored_samples);
+        }
         ro.background = job.background;
         ro.seed = MixSeed(uint64_t(o.seed), job.stream);
         const RenderedView view =

@@ -13,7 +13,7 @@
 namespace relight {
 
 inline const StageInfo kRelightStage{
-    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 1};
+    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 2};
 
 struct RelightOptions {
   // What to render.
@@ -44,6 +44,7 @@ struct RelightOptions {
   int pixel_samples_per_axis = 2;  // antialiasing: k x k jittered camera rays per pixel
   int light_samples = 8;           // environment importance samples per shading point
   int brdf_samples = 8;            // BRDF importance samples per shading point
+  int scored_samples = 32;         // at least this many environment and BRDF samples in the renders evaluate scores
   bool background = true;          // new views show the environment behind the object
   double occluder_albedo = 0.35;   // grey Lambertian albedo of <mesh>/occluders.ply (its reflectance is not recovered)
   double tonemap_percentile = 99;  // PNG exposure maps this percentile of object luminance to white
@@ -101,6 +102,12 @@ struct RelightOptions {
         .Range(1, 16);
     t->Add("light_samples", &light_samples, "Environment importance samples per shading point.").Range(0, 1024);
     t->Add("brdf_samples", &brdf_samples, "BRDF importance samples per shading point (MIS).").Range(0, 1024);
+    t->Add("scored_samples", &scored_samples,
+           "The renders evaluate scores (re-renderings of the photos, held-out views) use at least this many "
+           "environment and at least this many BRDF samples per shading point: their Monte Carlo noise would "
+           "otherwise cap the scores (at 8 + 8 samples the synthetic bunny's relighting PSNR stays at 27.8 dB "
+           "even with the true model; 31.0 dB at 32 + 32).")
+        .Range(1, 1024);
     t->Add("background", &background, "New views show the environment map behind the object (else black).");
     t->Add("occluder_albedo", &occluder_albedo,
            "Grey Lambertian albedo given to <mesh>/occluders.ply (ground, blockers): their reflectance is not "

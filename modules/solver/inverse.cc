@@ -274,7 +274,8 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
       break;
     }
     if (!solve_reflectance) {
-      result.stop_reason = "the reflectance is fixed: a single lighting solve suffices";
+      result.stop_reason = solve_lighting ? "the reflectance is fixed: a single lighting solve suffices"
+                                          : "lighting and reflectance are fixed: the ground truth is scored";
       break;
     }
     if (o.time_budget_s > 0 && total.Seconds() > o.time_budget_s) {

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "core/error.h"
+#include "meshing/mesh_cleanup.h"
 #include "synth/noise.h"
 
 namespace relight {
@@ -233,6 +234,18 @@ void BoundingSphere(const TriangleMesh& mesh, Eigen::Vector3d* center, double* r
   double r2 = 0;
   for (const auto& v : mesh.vertices) r2 = std::max(r2, (v.cast<double>() - *center).squaredNorm());
   *radius = std::sqrt(r2);
+}
+
+bool SimplifyToVertices(TriangleMesh* mesh, int max_vertices, const std::string& where) {
+  if (max_vertices <= 0 || mesh->num_vertices() <= size_t(max_vertices)) return false;
+  MeshCleanupOptions simplify;
+  simplify.target_vertices = max_vertices;
+  simplify.max_components = 1 << 30;  // keep every part of the object
+  simplify.min_component_fraction = 0.0;
+  simplify.max_hole_edges = 0;        // leave the file's holes as they are
+  MeshCleanupSummary summary;
+  *mesh = CleanMesh(*mesh, simplify, where, &summary);
+  return true;
 }
 
 }  // namespace relight

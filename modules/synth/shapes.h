@@ -30,6 +30,11 @@ void NormalizeOntoGround(TriangleMesh* mesh, double size);
 // Splits every triangle into four (edge midpoints, positions unchanged, normals
 // interpolated) until the mesh has at least `min_vertices` vertices.
 void SubdivideToVertices(TriangleMesh* mesh, int min_vertices);
+// Remeshes a mesh with more than `max_vertices` vertices down to about that
+// many (CGAL isotropic remeshing via meshing/mesh_cleanup.h; every component
+// kept, holes left open); properties are dropped, normals recomputed. Returns
+// false (mesh untouched) when it already has at most `max_vertices`.
+bool SimplifyToVertices(TriangleMesh* mesh, int max_vertices, const std::string& where);
 
 // Square ground plane z = 0 of side `size` centred at the origin, `cells` x `cells` quads, normal +Z.
 TriangleMesh MakeGroundPlane(double size, int cells);

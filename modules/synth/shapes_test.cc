@@ -1,7 +1,8 @@
 // Shapes against closed forms: closed, outward-oriented surfaces whose volumes
 // (divergence theorem) match the analytic ones; convexity of the sphere and
 // non-convexity of the blob; normalisation onto the ground; up-axis rotation;
-// subdivision that keeps the surface; mesh files brought into the scene frame.
+// subdivision and simplification that keep the surface; mesh files brought
+// into the scene frame.
 #include "synth/shapes.h"
 
 #include <gtest/gtest.h>
@@ -12,6 +13,7 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "geometry/mesh_io.h"
+#include "meshing/mesh_cleanup.h"
 #include "testing/testing.h"
 
 namespace relight {
@@ -149,6 +151,24 @@ TEST(ShapesTest, NormalizeRotateAndSubdivide) {
   EXPECT_GE(box.num_vertices(), 1000u);
   EXPECT_NEAR(box.SurfaceArea(), area, 1e-4 * area);
   for (float w : *box.FindProperty("w0")) EXPECT_EQ(w, 0.25f);
+}
+
+// Mesh files denser than needed are remeshed down: about the requested count,
+// still a closed 2-manifold, still on the original surface.
+TEST(ShapesTest, SimplifyToVerticesKeepsTheSurface) {
+  TriangleMesh sphere = MakeSphere(10000);  // unit radius, about 10K vertices
+  const size_t before = sphere.num_vertices();
+  ASSERT_GT(before, 8000u);
+  EXPECT_FALSE(SimplifyToVertices(&sphere, int(before), "sphere"));  // already small enough: untouched
+  EXPECT_EQ(sphere.num_vertices(), before);
+  ASSERT_TRUE(SimplifyToVertices(&sphere, 2000, "sphere"));
+  EXPECT_NEAR(double(sphere.num_vertices()), 2000.0, 300.0);
+  EXPECT_EQ(FindManifoldViolation(sphere), "");
+  EXPECT_EQ(CountBoundaryEdges(sphere), 0u);
+  double worst = 0;
+  for (const auto& v : sphere.vertices) worst = std::max(worst, std::abs(double(v.norm()) - 1.0));
+  EXPECT_LT(worst, 0.01);  // vertices stay on the sphere (chords of ~0.08 sag by < 0.001)
+  EXPECT_EQ(sphere.normals.size(), sphere.num_vertices());
 }
 
 TEST(ShapesTest, BoundingSphereContainsEveryVertex) {

@@ -102,6 +102,11 @@ SyntheticScene BuildSyntheticScene(const SynthesizeOptions& o) {
     object.normals.clear();
     object.colors.clear();
     object.properties.clear();
+    const size_t file_vertices = object.num_vertices();
+    if (SimplifyToVertices(&object, o.object_max_vertices, o.mesh)) {
+      RLOG_INFO("object mesh remeshed from {} to {} vertices (synthesize.object_max_vertices)", file_vertices,
+                object.num_vertices());
+    }
     RotateUp(&object, o.mesh_up, o.object_yaw_deg);
     NormalizeOntoGround(&object, o.object_size);
     object.ComputeVertexNormals();

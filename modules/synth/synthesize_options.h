@@ -25,6 +25,7 @@ struct SynthesizeOptions {
   double object_yaw_deg = 0;         // Rotation of the object about +Z after uprighting [deg].
   double object_size = 1.0;          // Largest bounding-box side of the object [scene units].
   int object_vertices = 40000;       // Built-in shapes get about this many vertices; files are subdivided up to it.
+  int object_max_vertices = 0;       // Mesh files with more vertices are remeshed down to about this many; 0: never.
   // Reflectance.
   std::string materials;            // materials.json with basis BRDFs and materials; empty: the built-in set.
   int num_materials = 3;            // How many built-in materials to use (1..4; ignored with `materials`).
@@ -113,6 +114,10 @@ struct SynthesizeOptions {
     t->Add("object_vertices", &object_vertices,
            "Built-in shapes get about this many vertices; mesh files are subdivided up to it (never decimated).")
         .Range(100, 5000000);
+    t->Add("object_max_vertices", &object_max_vertices,
+           "Mesh files with more vertices are remeshed down to about this many (CGAL isotropic remeshing; fewer "
+           "vertices cover more pixels each, so observations are less noisy); 0: never simplified.")
+        .Range(0, 5000000);
     t->Add("materials", &materials, "materials.json (docs/FORMATS.md) of the object; empty: the built-in set.")
         .InputFile();
     t->Add("num_materials", &num_materials, "Built-in materials used: terracotta, blue glaze, ivory, brass.")

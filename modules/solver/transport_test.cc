@@ -1,0 +1,193 @@
+// The transport rows against the project's independent Monte Carlo renderer:
+// with the true lighting (an environment map with a sun, resampled to the
+// solver's octahedral map) and the true reflectance, the bilinear model's
+// prediction a_{o,b}·L of an observation must equal the radiance the renderer
+// computes at the vertex towards the camera. solver_test checks the solver
+// against its own forward model; this test checks that forward model against
+// the rendering equation, which is what photos follow.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "core/log.h"
+#include "geometry/primitives.h"
+#include "geometry/raycaster.h"
+#include "render/render_view.h"
+#include "render/scene.h"
+#include "solver/lobe_spec.h"
+#include "solver/model.h"
+#include "solver/transport.h"
+#include "sphere/envmap.h"
+#include "sphere/frame.h"
+#include "visibility/visibility.h"
+#include "wavelet/haar.h"
+
+namespace relight {
+namespace {
+
+// Lat-long sky: blue gradient above, dim ground below, and a sun of
+// `sun_radius_deg` at elevation 35° (radiance 300, about 40x the sky's share).
+EnvMap SkyWithSun(int height, double sun_radius_deg) {
+  Image img(2 * height, height, 3);
+  const Eigen::Vector3d sun_dir(std::cos(0.61) * std::cos(0.8), std::cos(0.61) * std::sin(0.8), std::sin(0.61));
+  const double sun_cos = std::cos(sun_radius_deg * M_PI / 180);
+  for (int y = 0; y < height; ++y) {
+    const double theta = (y + 0.5) / height * M_PI;  // from +Z
+    for (int x = 0; x < 2 * height; ++x) {
+      const double phi = (x + 0.5) / (2 * height) * 2 * M_PI;
+      const Eigen::Vector3d d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+      Eigen::Vector3d rgb = d.z() > 0 ? Eigen::Vector3d(0.25, 0.45, 0.9) * (0.4 + 0.6 * d.z())
+                                      : Eigen::Vector3d(0.12, 0.1, 0.08);
+      if (d.dot(sun_dir) > sun_cos) rgb = Eigen::Vector3d(300, 280, 250);
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = static_cast<float>(rgb[c]);
+    }
+  }
+  return EnvMap::FromLatLong(std::move(img));
+}
+
+struct Comparison {
+  std::vector<double> rel_error;  // |prediction - rendered| / |rendered| per observation
+  Eigen::Vector3d sum_predicted = Eigen::Vector3d::Zero(), sum_rendered = Eigen::Vector3d::Zero();
+};
+
+// A glossy two-material sphere beside a box on a ground plane; observations of
+// random vertices from three cameras; prediction vs the renderer.
+Comparison Compare(int resolution) {
+  TriangleMesh sphere = MakeIcosphere(4);
+  for (auto& v : sphere.vertices) v.z() += 1.0f;
+  sphere.ComputeVertexNormals();
+  const int nv = static_cast<int>(sphere.num_vertices());
+  std::vector<float> w0(nv), w1(nv);
+  for (int v = 0; v < nv; ++v) {
+    w0[v] = 0.5f + 0.5f * std::sin(3.0f * sphere.vertices[v].x());
+    w1[v] = 1.0f - w0[v];
+  }
+  sphere.Property("w0") = w0;
+  sphere.Property("w1") = w1;
+  ReflectanceModel model;
+  model.basis = ParseLobeSpecs({"lambertian", "phong:40", "ggx:0.3"});
+  model.materials = {{"red", {Eigen::Vector3d(0.6, 0.2, 0.1), Eigen::Vector3d(0.3, 0.3, 0.3), Eigen::Vector3d::Zero()}},
+                     {"blue", {Eigen::Vector3d(0.1, 0.25, 0.5), Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(0.6)}}};
+  TriangleMesh occluders = MakeGrid(-6, 6, -6, 6, 0, 8, 8);
+  occluders.Append(MakeBox(Eigen::Vector3f(1.3f, -0.6f, 0.0f), Eigen::Vector3f(1.9f, 0.6f, 1.8f)));
+  occluders.ComputeVertexNormals();
+  const Scene scene({{sphere, model}, {occluders, LambertianModel(Eigen::Vector3d::Constant(0.3)), SurfaceRole::kOccluder}});
+  const EnvMap env = SkyWithSun(128, 2.0);
+  const Lighting lighting = Lighting::FromEnvMap(env);
+
+  // Visibility maps of every vertex, every coefficient kept.
+  const RayCaster caster({&sphere, &occluders});
+  VisibilityOptions vo;
+  vo.resolution = resolution;
+  vo.supersampling = 4;
+  VisibilityData visibility;
+  visibility.resolution = resolution;
+  visibility.supersampling = vo.supersampling;
+  std::vector<uint32_t> ids(nv);
+  for (int v = 0; v < nv; ++v) ids[v] = v;
+  std::vector<float> maps;
+  BakeVisibilityMaps(sphere, caster, ids, vo, &maps);
+  const int n2 = resolution * resolution;
+  for (int v = 0; v < nv; ++v) {
+    std::vector<float> c(n2);
+    HaarForward(maps.data() + size_t(v) * n2, resolution, c.data());
+    visibility.per_vertex.push_back(SparseFromDense(c.data(), resolution));
+  }
+
+  // Observations: 120 random vertices facing each of three cameras, unoccluded.
+  ObservationSet obs;
+  obs.num_photos = 1;
+  obs.num_vertices = nv;
+  std::mt19937 rng(3);
+  std::vector<Eigen::Vector3d> cameras = {{6, -5, 3}, {-4, -6, 2}, {-5, 5, 4}};
+  for (const Eigen::Vector3d& cam : cameras) {
+    int taken = 0;
+    for (int tries = 0; tries < 20000 && taken < 120; ++tries) {
+      const int v = static_cast<int>(rng() % nv);
+      const Eigen::Vector3d x = sphere.vertices[v].cast<double>();
+      const Eigen::Vector3d to_cam = (cam - x).normalized();
+      const Eigen::Vector3d nrm = sphere.normals[v].cast<double>();
+      if (nrm.dot(to_cam) < 0.3) continue;
+      if (caster.Occluded({(x + 1e-4 * nrm).cast<float>(), to_cam.cast<float>()})) continue;
+      Observation ob;
+      ob.vertex = v;
+      ob.confidence = 1;
+      const Eigen::Vector3d local = FrameFromNormal<double>(nrm).ToLocal(to_cam);
+      for (int k = 0; k < 3; ++k) ob.view_local[k] = static_cast<float>(local[k]);
+      obs.records.push_back(ob);
+      ++taken;
+    }
+  }
+  std::sort(obs.records.begin(), obs.records.end(),
+            [](const Observation& a, const Observation& b) { return a.vertex < b.vertex; });
+
+  // The model's quantities: octahedral lighting, reflectance per vertex.
+  LightingState l;
+  l.env_resolution = resolution;
+  l.Resize(1);
+  const Image oct = env.ToOctahedral(resolution);
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k < l.dim; ++k) l.values[0][c][k] = oct.pixels[size_t(k) * 3 + c];
+  l.UpdateCoefficients();
+  ReflectanceState r;
+  r.basis = model.basis;
+  r.num_materials = 2;
+  for (const auto& m : model.materials)
+    for (const auto& c : m.coefficients) r.coefficients.push_back(c);
+  r.weights.resize(size_t(nv) * 2);
+  for (int v = 0; v < nv; ++v) {
+    r.weights[v * 2] = w0[v];
+    r.weights[v * 2 + 1] = w1[v];
+  }
+  TransportOptions to;
+  to.basis = r.basis;
+  to.env_resolution = resolution;
+  to.keep_energy = 1.0;
+  to.max_coefficients = resolution * resolution;
+  const TransportStore transport = BuildTransport(sphere, visibility, obs, to);
+
+  RenderOptions render;
+  render.light_samples = 64;
+  render.brdf_samples = 64;
+  Comparison out;
+  for (size_t o = 0; o < obs.records.size(); ++o) {
+    const Observation& ob = obs.records[o];
+    float p[3];
+    Predict(transport, obs, o, r, l, p);
+    const Eigen::Vector3d nrm = sphere.normals[ob.vertex].cast<double>();
+    const Eigen::Vector3d dir =
+        FrameFromNormal<double>(nrm).ToWorld(Eigen::Vector3d(ob.view_local[0], ob.view_local[1], ob.view_local[2]));
+    const RadianceEstimate truth = VertexRadiance(scene, lighting, 0, static_cast<int>(ob.vertex), dir, render, 8);
+    const Eigen::Vector3d predicted(p[0], p[1], p[2]);
+    out.rel_error.push_back((predicted - truth.mean).norm() / std::max(1e-6, truth.mean.norm()));
+    out.sum_predicted += predicted;
+    out.sum_rendered += truth.mean;
+  }
+  std::sort(out.rel_error.begin(), out.rel_error.end());
+  return out;
+}
+
+double Quantile(const std::vector<double>& sorted, double q) { return sorted[size_t(q * (sorted.size() - 1))]; }
+
+TEST(TransportTest, PredictionsAgreeWithTheMonteCarloRenderer) {
+  InitLogging("transport_test", "", LogLevel::kWarning);
+  setenv("RELIGHT_PROGRESS", "off", 1);
+  for (int resolution : {32, 64}) {
+    const Comparison c = Compare(resolution);
+    ASSERT_GT(c.rel_error.size(), 300u);
+    const double median = Quantile(c.rel_error, 0.5), p90 = Quantile(c.rel_error, 0.9);
+    std::printf("env/visibility %d: %zu observations, relative error median %.4f, 90th percentile %.4f, "
+                "channel sums predicted/rendered %.4f %.4f %.4f\n",
+                resolution, c.rel_error.size(), median, p90, c.sum_predicted[0] / c.sum_rendered[0],
+                c.sum_predicted[1] / c.sum_rendered[1], c.sum_predicted[2] / c.sum_rendered[2]);
+    // The renderer's own noise is about 1% (8 estimates of 64 + 64 samples).
+    for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(c.sum_predicted[ch] / c.sum_rendered[ch], 1.0, 0.03) << resolution;
+    EXPECT_LE(median, 0.03) << resolution;
+    EXPECT_LE(p90, 0.12) << resolution;
+  }
+}
+
+}  // namespace
+}  // namespace relight
