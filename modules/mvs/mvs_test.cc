@@ -162,22 +162,28 @@ TEST_F(MvsTest, VectorizedNccMatchesPlainLoopAndClosedForms) {
   EXPECT_EQ(NccCost(window, pattern, far, MakeSamplingImage(ref)), kMaxNccCost);
 }
 
+// Images 1..n of camera 1, named <prefix><i>.png, at `centers`, all looking along +z (identity rotation).
+std::vector<ImageRecord> CamerasLookingAlongZ(const std::vector<Eigen::Vector3d>& centers, const std::string& prefix) {
+  std::vector<ImageRecord> poses;
+  for (size_t i = 0; i < centers.size(); ++i) {
+    ImageRecord image;
+    image.image_id = static_cast<uint32_t>(i + 1);
+    image.camera_id = 1;
+    image.name = prefix + std::to_string(i) + ".png";
+    image.SetPose(Eigen::Matrix3d::Identity(), centers[i]);
+    poses.push_back(image);
+  }
+  return poses;
+}
+
 // Cameras 3 units in front of a textured square, all looking along +z, displaced sideways.
 TestScene PlaneScene(double tilt_deg) {
   TriangleMesh square = mvs_test::MakeSquare(8.0, 0.0);
   const Eigen::Matrix3f R = Eigen::AngleAxisf(float(tilt_deg * M_PI / 180), Eigen::Vector3f::UnitX()).toRotationMatrix();
   for (auto& v : square.vertices) v = R * v + Eigen::Vector3f(0, 0, 3);
   square.ComputeVertexNormals();
-  std::vector<Eigen::Vector3d> centers = {{0, 0, 0}, {0.5, 0, 0}, {-0.5, 0, 0}, {0, 0.5, 0}, {0, -0.5, 0}};
-  std::vector<ImageRecord> poses;
-  for (size_t i = 0; i < centers.size(); ++i) {
-    ImageRecord image;
-    image.image_id = static_cast<uint32_t>(i + 1);
-    image.camera_id = 1;
-    image.name = "plane_" + std::to_string(i) + ".png";
-    image.SetPose(Eigen::Matrix3d::Identity(), centers[i]);
-    poses.push_back(image);
-  }
+  const std::vector<ImageRecord> poses =
+      CamerasLookingAlongZ({{0, 0, 0}, {0.5, 0, 0}, {-0.5, 0, 0}, {0, 0.5, 0}, {0, -0.5, 0}}, "plane_");
   const Camera camera = Camera::Pinhole(1, 160, 120, 150, 150, 80, 60);
   return mvs_test::RenderScene(square, camera, poses, 400, 3);
 }
@@ -338,15 +344,8 @@ TEST_F(MvsTest, EvaluationScoresDepthMapsAgainstObjectAndSceneRanges) {
   const Camera camera = Camera::Pinhole(1, 64, 48, 60, 60, 32, 24);
   Reconstruction model;
   model.cameras[1] = camera;
-  const std::vector<Eigen::Vector3d> centers = {{0, 0, 0}, {0.3, 0, 0}, {0, 0.3, 0}, {0.3, 0.3, 0.1}};
-  for (size_t i = 0; i < centers.size(); ++i) {
-    ImageRecord image;
-    image.image_id = static_cast<uint32_t>(i + 1);
-    image.camera_id = 1;
-    image.name = "eval_" + std::to_string(i) + ".png";
-    image.SetPose(Eigen::Matrix3d::Identity(), centers[i]);
+  for (const ImageRecord& image : CamerasLookingAlongZ({{0, 0, 0}, {0.3, 0, 0}, {0, 0.3, 0}, {0.3, 0.3, 0.1}}, "eval_"))
     model.images[image.image_id] = image;
-  }
   testing::TempDir dir;
   const std::string truth_dir = dir / "ground_truth", out_dir = dir / "out";
   EnsureDir(truth_dir + "/depth");

@@ -21,31 +21,12 @@
 #include "solver/transport.h"
 #include "sphere/envmap.h"
 #include "sphere/frame.h"
+#include "sphere/sky.h"
 #include "visibility/visibility.h"
 #include "wavelet/haar.h"
 
 namespace relight {
 namespace {
-
-// Lat-long sky: blue gradient above, dim ground below, and a sun of
-// `sun_radius_deg` at elevation 35° (radiance 300, about 40x the sky's share).
-EnvMap SkyWithSun(int height, double sun_radius_deg) {
-  Image img(2 * height, height, 3);
-  const Eigen::Vector3d sun_dir(std::cos(0.61) * std::cos(0.8), std::cos(0.61) * std::sin(0.8), std::sin(0.61));
-  const double sun_cos = std::cos(sun_radius_deg * M_PI / 180);
-  for (int y = 0; y < height; ++y) {
-    const double theta = (y + 0.5) / height * M_PI;  // from +Z
-    for (int x = 0; x < 2 * height; ++x) {
-      const double phi = (x + 0.5) / (2 * height) * 2 * M_PI;
-      const Eigen::Vector3d d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
-      Eigen::Vector3d rgb = d.z() > 0 ? Eigen::Vector3d(0.25, 0.45, 0.9) * (0.4 + 0.6 * d.z())
-                                      : Eigen::Vector3d(0.12, 0.1, 0.08);
-      if (d.dot(sun_dir) > sun_cos) rgb = Eigen::Vector3d(300, 280, 250);
-      for (int c = 0; c < 3; ++c) img.at(x, y, c) = static_cast<float>(rgb[c]);
-    }
-  }
-  return EnvMap::FromLatLong(std::move(img));
-}
 
 struct Comparison {
   std::vector<double> rel_error;  // |prediction - rendered| / |rendered| per observation
@@ -74,7 +55,11 @@ Comparison Compare(int resolution) {
   occluders.Append(MakeBox(Eigen::Vector3f(1.3f, -0.6f, 0.0f), Eigen::Vector3f(1.9f, 0.6f, 1.8f)));
   occluders.ComputeVertexNormals();
   const Scene scene({{sphere, model}, {occluders, LambertianModel(Eigen::Vector3d::Constant(0.3)), SurfaceRole::kOccluder}});
-  const EnvMap env = SkyWithSun(128, 2.0);
+  // A clear sky with a 3° sun 35° high (sphere/sky.h): most of the light from one small disk.
+  SunSkyParams sky;
+  sky.sun_dir_world = Eigen::Vector3d(std::cos(0.61) * std::cos(0.8), std::cos(0.61) * std::sin(0.8), std::sin(0.61));
+  sky.sun_radius_deg = 3.0;
+  const EnvMap env = MakeSunSky(sky, 128);
   const Lighting lighting = Lighting::FromEnvMap(env);
 
   // Visibility maps of every vertex, every coefficient kept.
