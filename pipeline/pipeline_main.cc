@@ -153,7 +153,7 @@ int Main(int argc, char** argv) {
   AddCommon(run, &common);
   run->add_option("--from", request.from, "Rerun this stage and every later one");
   run->add_option("--only", request.only, "Run only this stage (its upstream must be cached)");
-  run->add_option("--force", force, "Rerun this stage even if cached (repeatable)");
+  run->add_option("--force", force, "Rerun this stage even if cached, and the stages downstream of it (repeatable)");
   run->add_option("--until", request.until, "Stop after this stage");
 
   auto* status = app.add_subcommand("status", "Show which stages of CONFIG are cached");

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <set>
 
 #include "core/error.h"
 #include "core/fs.h"
@@ -153,9 +154,18 @@ std::vector<StageRecord> Runner::Run(const RunRequest& request) {
   }
 
   bool failed = false;
+  // Stages that produced a result in this run. A cached entry downstream of
+  // one was computed from the result it replaced (a forced rerun keeps the key,
+  // and stages such as COLMAP's are not deterministic), so it reruns too, or is
+  // invalidated when this run does not reach it.
+  std::set<std::string> produced;
   for (int i = 0; i < static_cast<int>(records.size()); ++i) {
     StageRecord& r = records[i];
     const bool done = r.status == "cached";
+    std::string rerun_upstream;
+    for (const auto& [up, key] : r.upstream) {
+      if (produced.count(up) > 0) rerun_upstream = up;
+    }
     if (r.status == "skipped") {
       WriteSummary(records);
       continue;
@@ -166,6 +176,15 @@ std::vector<StageRecord> Runner::Run(const RunRequest& request) {
       continue;
     }
     const bool selected = only >= 0 ? i == only : i <= until;
+    if (!selected && done && !rerun_upstream.empty()) {
+      std::error_code ec;
+      fs::remove(JoinPath(r.output_dir, "status.json"), ec);
+      r.status = "stale";
+      r.reason = "'" + rerun_upstream + "' was rerun; the next run without --until/--only reruns it";
+      RLOG_WARN("{}: cached result invalidated ({})", r.name, r.reason);
+      produced.insert(r.name);
+      continue;
+    }
     if (!selected) {
       if (done) {
         Publish(r);
@@ -175,7 +194,8 @@ std::vector<StageRecord> Runner::Run(const RunRequest& request) {
       }
       continue;
     }
-    const bool force = request.force.count(r.name) > 0 || (from >= 0 && i >= from) || i == only;
+    const bool force = request.force.count(r.name) > 0 || (from >= 0 && i >= from) || i == only ||
+                       !rerun_upstream.empty();
     if (done && !force) {
       RLOG_INFO("{}: cached ({})", r.name, ShortKey(r.key));
       Publish(r);
@@ -195,6 +215,7 @@ std::vector<StageRecord> Runner::Run(const RunRequest& request) {
       failed = true;
       continue;
     }
+    produced.insert(r.name);
     Publish(r);
   }
   WriteSummary(records);

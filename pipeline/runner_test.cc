@@ -202,8 +202,25 @@ TEST_F(RunnerTest, FailedForcedRerunKeepsThePreviousResult) {
   unsetenv("TEST_STAGE_FAIL");
   Invocations();
   auto ok = Run(base_, force);
-  EXPECT_EQ(Statuses(ok), "alpha:done beta:cached gamma:cached delta:cached ");
-  EXPECT_EQ(Invocations(), "alpha ");
+  // The new result replaces the old one under the same key, so everything computed from it reruns.
+  EXPECT_EQ(Statuses(ok), "alpha:done beta:done gamma:done delta:done ");
+  EXPECT_EQ(Invocations(), "alpha beta gamma delta ");
+}
+
+TEST_F(RunnerTest, ForcedRerunInvalidatesDownstreamResultsThisRunDoesNotReach) {
+  Run(base_);
+  Invocations();
+  RunRequest force;
+  force.force = {"beta"};
+  force.until = "beta";
+  auto records = Run(base_, force);
+  EXPECT_EQ(Statuses(records), "alpha:cached beta:done gamma:cached delta:stale ");
+  EXPECT_EQ(Invocations(), "beta ");
+  EXPECT_NE(Find(records, "delta").reason.find("'beta' was rerun"), std::string::npos) << Find(records, "delta").reason;
+  // The next full run recomputes delta from the new beta, and only delta.
+  auto next = Run(base_);
+  EXPECT_EQ(Statuses(next), "alpha:cached beta:cached gamma:cached delta:done ");
+  EXPECT_EQ(Invocations(), "delta ");
 }
 
 TEST_F(RunnerTest, FromOnlyUntil) {

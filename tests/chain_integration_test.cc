@@ -73,10 +73,12 @@ TEST(ChainIntegrationTest, SyntheticTinyEndToEndIsAccurateAndCached) {
   EXPECT_GE(m["relight_psnr_db"].get<double>(), 15.0);
   EXPECT_GE(m["rerender_psnr_db"].get<double>(), 16.0);
   EXPECT_TRUE(fs::exists(ws + "/report/index.html"));
-  std::printf("chain metrics: rotation %.3f deg, centre %.4f, chamfer %.4f, relight %.2f dB, rerender %.2f dB\n",
-              m["cameras"]["median_rotation_deg"].get<double>(),
-              m["cameras"]["median_center_error_relative"].get<double>(), m["mesh"]["chamfer_relative"].get<double>(),
-              m["relight_psnr_db"].get<double>(), m["rerender_psnr_db"].get<double>());
+  std::printf(
+      "chain metrics: rotation %.3f deg, centre %.4f, chamfer %.4f, light direction %.2f deg, env-map error %.3f, "
+      "relight %.2f dB, rerender %.2f dB\n",
+      m["cameras"]["median_rotation_deg"].get<double>(), m["cameras"]["median_center_error_relative"].get<double>(),
+      m["mesh"]["chamfer_relative"].get<double>(), m["light_dir_error_deg"].get<double>(),
+      m.value("envmap_rel_error", -1.0), m["relight_psnr_db"].get<double>(), m["rerender_psnr_db"].get<double>());
 
   // A second run reruns nothing.
   ASSERT_EQ(testing::RunCommand(pipeline + "run " + config + " --workspace " + ws, &out), 0) << out;

@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <unordered_map>
 
 #include "core/error.h"
 #include "core/log.h"
@@ -79,8 +80,52 @@ TriangleMesh FromSurfaceMesh(const SurfaceMesh& mesh) {
   return out;
 }
 
-// Keeps the largest components by area (up to max_components, each at least
-// min_component_fraction of the largest).
+// Data points per component: each point counts for the component of its
+// nearest vertex within `radius` (a hash grid of cell `radius`, 27 cells).
+std::vector<double> ComponentSupport(const SurfaceMesh& mesh, const SurfaceMesh::Property_map<Face, std::size_t>& fcc,
+                                     std::size_t num, const std::vector<Eigen::Vector3d>& points, double radius) {
+  std::vector<double> support(num, 0.0);
+  if (radius <= 0 || points.empty()) return support;
+  auto cell = [radius](double x) { return static_cast<int64_t>(std::floor(x / radius)); };
+  auto key = [](int64_t x, int64_t y, int64_t z) {
+    return (x & 0x1FFFFF) | ((y & 0x1FFFFF) << 21) | ((z & 0x1FFFFF) << 42);
+  };
+  std::unordered_map<int64_t, std::vector<std::pair<Eigen::Vector3d, std::size_t>>> grid;
+  for (auto v : mesh.vertices()) {
+    const auto h = mesh.halfedge(v);
+    if (h == SurfaceMesh::null_halfedge()) continue;
+    Face f = mesh.face(h);
+    if (f == SurfaceMesh::null_face()) f = mesh.face(mesh.opposite(h));
+    if (f == SurfaceMesh::null_face()) continue;
+    const Point& p = mesh.point(v);
+    const Eigen::Vector3d x(p.x(), p.y(), p.z());
+    grid[key(cell(x.x()), cell(x.y()), cell(x.z()))].emplace_back(x, fcc[f]);
+  }
+  for (const Eigen::Vector3d& p : points) {
+    const int64_t cx = cell(p.x()), cy = cell(p.y()), cz = cell(p.z());
+    double best = radius * radius;
+    std::size_t best_component = num;
+    for (int64_t dx = -1; dx <= 1; ++dx)
+      for (int64_t dy = -1; dy <= 1; ++dy)
+        for (int64_t dz = -1; dz <= 1; ++dz) {
+          const auto it = grid.find(key(cx + dx, cy + dy, cz + dz));
+          if (it == grid.end()) continue;
+          for (const auto& [x, c] : it->second) {
+            const double d2 = (x - p).squaredNorm();
+            if (d2 <= best) {
+              best = d2;
+              best_component = c;
+            }
+          }
+        }
+    if (best_component < num) support[best_component] += 1;
+  }
+  return support;
+}
+
+// Keeps the best components (up to max_components, each scoring at least
+// min_component_fraction of the best): ranked by their support in the data
+// points when there are any near the mesh, else by area.
 void KeepLargestComponents(const MeshCleanupOptions& options, SurfaceMesh* mesh, MeshCleanupSummary* summary) {
   auto fccmap = mesh->add_property_map<Face, std::size_t>("f:relight_cc", 0).first;
   const std::size_t num = PMP::connected_components(*mesh, fccmap);
@@ -91,12 +136,24 @@ void KeepLargestComponents(const MeshCleanupOptions& options, SurfaceMesh* mesh,
     area[fccmap[f]] += PMP::face_area(f, *mesh);
     ++faces[fccmap[f]];
   }
+  std::vector<double> score = area;
+  summary->component_ranking = "area";
+  if (options.support_points != nullptr && num > 1) {
+    const std::vector<double> support =
+        ComponentSupport(*mesh, fccmap, num, *options.support_points, options.support_radius);
+    if (*std::max_element(support.begin(), support.end()) > 0) {
+      score = support;
+      summary->component_ranking = "support";
+    }
+  }
   std::vector<std::size_t> order(num);
   for (size_t i = 0; i < num; ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return area[a] > area[b]; });
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return score[a] != score[b] ? score[a] > score[b] : area[a] > area[b];
+  });
   std::vector<std::size_t> keep;
   for (size_t k = 0; k < num && static_cast<int>(k) < options.max_components; ++k) {
-    if (k == 0 || area[order[k]] >= options.min_component_fraction * area[order[0]]) keep.push_back(order[k]);
+    if (k == 0 || score[order[k]] >= options.min_component_fraction * score[order[0]]) keep.push_back(order[k]);
   }
   summary->components_removed = static_cast<int>(num - keep.size());
   for (size_t k = 0; k < num; ++k) {

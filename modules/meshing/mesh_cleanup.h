@@ -26,8 +26,16 @@ namespace relight {
 struct MeshCleanupOptions {
   int target_vertices = 50000;           // 0: keep the resolution
   bool remesh = true;                    // isotropic remeshing (else edge-collapse decimation only)
-  int max_components = 1;                // largest by area first
-  double min_component_fraction = 0.05;  // of the largest component's area
+  int max_components = 1;                // best supported (else largest by area) first
+  double min_component_fraction = 0.05;  // of the best component's support (else area)
+  // Data points that rank the components (the fused MVS cloud; not owned). A
+  // component's support is the number of points whose nearest vertex within
+  // `support_radius` is its. A watertight Poisson surface of an object on
+  // the ground, cropped, leaves the ground's top and its spurious underside as
+  // separate sheets; the underside can have the larger area but carries no
+  // data. nullptr or no point near any vertex: components rank by area.
+  const std::vector<Eigen::Vector3d>* support_points = nullptr;
+  double support_radius = 0;  // mesh units
   int max_hole_edges = 500;              // holes with more boundary edges stay open
   double max_hole_fraction = 0.1;        // holes wider than this fraction of the bbox diagonal stay open
   int remesh_iterations = 3;             // per remeshing pass
@@ -43,6 +51,7 @@ struct MeshCleanupSummary {
   size_t non_manifold_points_duplicated = 0;  // points split to make edges and vertices manifold
   size_t degenerate_faces_removed = 0;
   int components_found = 0;
+  std::string component_ranking = "area";  // "support" (data points) or "area"
   int components_removed = 0;
   size_t faces_removed_with_components = 0;
   int holes_filled = 0;

@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kMeshStage{
-    "mesh", "Mesh clean-up (CGAL): largest parts, holes, cropping, remeshing to a vertex budget, outward normals", 1};
+    "mesh", "Mesh clean-up (CGAL): largest parts, holes, cropping, remeshing to a vertex budget, outward normals", 2};
 
 struct MeshOptions {
   std::string source = "mvs";        // mvs: <mvs>/meshed.ply; file: mesh.file; ground_truth: <ingest>/ground_truth.
@@ -20,13 +20,13 @@ struct MeshOptions {
   std::string file_frame = "world";  // Frame of mesh.file: world (sfm output) or colmap (before sfm's rotation).
   int target_vertices = 50000;       // Vertex budget of the output (the method works per vertex); 0 keeps.
   std::string resample = "remesh";   // remesh: isotropic remeshing (uniform triangles); decimate: edge collapse only.
-  int max_components = 1;            // Keep at most this many connected components, largest area first.
-  double min_component_fraction = 0.05;  // Drop components with less than this fraction of the largest one's area.
+  int max_components = 1;            // Keep at most this many connected components, best supported first.
+  double min_component_fraction = 0.05;  // Drop components with less than this fraction of the best one's score.
   int max_hole_edges = 500;              // Fill holes bounded by at most this many edges ...
   double max_hole_fraction = 0.1;        // ... and no wider than this fraction of the bounding-box diagonal.
   bool auto_crop = true;                 // Crop to the region seen by the registered cameras (sparse points).
   double crop_percentile = 2.0;          // Robust extent of the sparse points: percentiles [p, 100-p] per axis ...
-  double crop_margin = 0.15;             // ... grown by this fraction of its size on each side.
+  double crop_margin = 0.15;             // ... grown on each side by this fraction of its largest side.
   int crop_min_views = 2;                // A kept face lies in front of at least this many camera frusta.
   double max_point_distance =
       0.02;  // Drop faces farther than this (fraction of the points' box diagonal) from every point.
@@ -52,10 +52,12 @@ struct MeshOptions {
            "remesh: isotropic remeshing to uniform triangles (best for per-vertex reflectance); decimate: "
            "edge collapse only (keeps detail where the input has it).")
         .Choices({"remesh", "decimate"});
-    t->Add("max_components", &max_components, "Keep at most this many connected components, largest area first.")
+    t->Add("max_components", &max_components,
+           "Keep at most this many connected components: those with the most fused points within "
+           "mesh.max_point_distance first (largest area first without fused points).")
         .Min(1);
     t->Add("min_component_fraction", &min_component_fraction,
-           "Drop kept components with less than this fraction of the largest component's area.")
+           "Drop kept components scoring less than this fraction of the best one (fused points near it, else area).")
         .Range(0, 1);
     t->Add("max_hole_edges", &max_hole_edges, "Fill holes bounded by at most this many edges (0: fill none).").Min(0);
     t->Add("max_hole_fraction", &max_hole_fraction,
@@ -66,7 +68,7 @@ struct MeshOptions {
            "in front of at least mesh.crop_min_views cameras.");
     t->Add("crop_percentile", &crop_percentile, "Robust box: per-axis percentiles [p, 100-p] of the sparse points.")
         .Range(0, 49);
-    t->Add("crop_margin", &crop_margin, "Robust box grown by this fraction of its size on each side.").Min(0);
+    t->Add("crop_margin", &crop_margin, "Robust box grown on each side by this fraction of its largest side.").Min(0);
     t->Add("crop_min_views", &crop_min_views, "A kept face lies inside at least this many camera frusta.").Min(0);
     t->Add("max_point_distance", &max_point_distance,
            "Auto crop: drop faces farther than this fraction of the point cloud's bounding-box diagonal from every "

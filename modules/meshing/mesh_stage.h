@@ -69,7 +69,9 @@ TriangleMesh CropMesh(const TriangleMesh& mesh, const CropRegion& region, size_t
                       size_t* removed_by_views, size_t* removed_by_distance = nullptr);
 
 // Robust box of a model's sparse points: per-axis percentiles [p, 100-p],
-// grown by `margin` × size on each side. Empty when the model has < 10 points.
+// grown on each side by `margin` × the box's largest side (on every axis, so
+// a thin vertical extent dominated by ground points does not crop the object).
+// Empty when the model has < 10 points.
 Eigen::AlignedBox3d SparsePointBox(const Reconstruction& model, double percentile, double margin);
 
 // Orients an open mesh so that the faces seen by the cameras face them (ray

@@ -174,6 +174,43 @@ TEST(MeshCleanup, DecimationReachesTheVertexBudget) {
   EXPECT_LT(MaxRadialError(out), 0.03);
 }
 
+TEST(MeshCleanup, ComponentsRankByTheDataNearThemNotByArea) {
+  // A unit sphere (area 12.6) and, beside it, a larger sphere of radius 2
+  // (area 50) with no data near it: the Poisson underside of a cropped ground
+  // sheet is such a part. The data points lie on the unit sphere.
+  TriangleMesh input = Icosphere(3);
+  const TriangleMesh big = Icosphere(3);
+  const int offset = static_cast<int>(input.vertices.size());
+  for (const auto& v : big.vertices) input.vertices.push_back(2.0f * v + Eigen::Vector3f(6, 0, 0));
+  for (const auto& f : big.faces) input.faces.push_back(f + Eigen::Vector3i::Constant(offset));
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < offset; ++i) points.push_back(1.01 * input.vertices[i].cast<double>());
+
+  MeshCleanupOptions options;
+  options.target_vertices = 0;
+  MeshCleanupSummary by_area;
+  const TriangleMesh largest = CleanMesh(input, options, "two spheres", &by_area);
+  EXPECT_EQ(by_area.component_ranking, "area");
+  EXPECT_EQ(by_area.components_found, 2);
+  for (const auto& v : largest.vertices) EXPECT_NEAR((v - Eigen::Vector3f(6, 0, 0)).norm(), 2.0f, 1e-4f);
+
+  options.support_points = &points;
+  options.support_radius = 0.1;
+  MeshCleanupSummary by_support;
+  const TriangleMesh supported = CleanMesh(input, options, "two spheres", &by_support);
+  EXPECT_EQ(by_support.component_ranking, "support");
+  EXPECT_EQ(by_support.components_removed, 1);
+  EXPECT_EQ(supported.vertices.size(), size_t(offset));
+  for (const auto& v : supported.vertices) EXPECT_NEAR(v.norm(), 1.0f, 1e-4f);
+
+  // Data far from every vertex (beyond the radius): back to area.
+  std::vector<Eigen::Vector3d> far = {Eigen::Vector3d(0, 0, 10)};
+  options.support_points = &far;
+  MeshCleanupSummary no_support;
+  CleanMesh(input, options, "two spheres", &no_support);
+  EXPECT_EQ(no_support.component_ranking, "area");
+}
+
 // Upper hemisphere (z > 0) of a damaged sphere: an open, bounded surface.
 TriangleMesh DamagedDome(bool inward) {
   TriangleMesh sphere = Icosphere(5);
@@ -291,6 +328,32 @@ TEST(MeshCrop, BoxAndViews) {
     EXPECT_LE(std::abs(c.y()), 0.25f * (1.5f - c.x()) + 1e-3f);  // inside the frustum
     EXPECT_LE(std::abs(c.z()), 0.25f * (1.5f - c.x()) + 1e-3f);
   }
+}
+
+TEST(MeshCrop, SparseBoxKeepsAnObjectStandingOnATexturedGround) {
+  // The typical capture: 950 sparse points on a 10 x 10 ground (z = 0), 50 on
+  // a 1-high object at the centre, and 10 far outliers. The vertical 98th
+  // percentile lands at z = 0.78, inside the object; a margin of 15% of that
+  // axis' own extent would crop the object's top at z = 0.9.
+  Reconstruction model;
+  uint64_t id = 1;
+  auto add = [&](double x, double y, double z) {
+    Point3D p;
+    p.point3d_id = id;
+    p.xyz = Eigen::Vector3d(x, y, z);
+    model.points3d[id++] = p;
+  };
+  for (int i = 0; i < 950; ++i) add(-5 + 10.0 * (i % 31) / 30, -5 + 10.0 * (i / 31) / 30, 0.0);
+  for (int i = 1; i <= 50; ++i) add(0.1 * std::cos(i), 0.1 * std::sin(i), i / 50.0);
+  for (int i = 0; i < 10; ++i) add(100.0 + i, 100.0, 100.0);
+  const Eigen::AlignedBox3d box = SparsePointBox(model, 2.0, 0.15);
+  ASSERT_FALSE(box.isEmpty());
+  // Grown by 15% of the largest side (about 10) on every axis: the object's top is in, the outliers are out.
+  EXPECT_GT(box.max().z(), 1.0 + 0.1);
+  EXPECT_NEAR(box.max().z() - box.min().z(), 0.78 + 2 * 0.15 * 10, 0.05);
+  EXPECT_NEAR(box.max().x(), 5.0 + 0.15 * 10, 0.05);
+  EXPECT_LT(box.max().x(), 10.0);
+  EXPECT_LT(box.max().y(), 10.0);
 }
 
 TEST(MeshCrop, DistanceToPoints) {

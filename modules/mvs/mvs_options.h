@@ -23,13 +23,14 @@ struct MvsOptions {
   double min_triangulation_angle_deg = 2.0;   // Shared points seen under a smaller angle do not count.
   int min_shared_points = 5;                  // A source view needs at least this many usable shared points.
   // --- matching cost (bilateral-weighted NCC, Schönberger et al. 2016 §4.1)
-  // COLMAP's window (radius 5, σ 5). A smaller one (radius 3, step 1, σ 2 px) scores better depth
-  // completeness and Chamfer in isolated MVS runs on both synthetic scenes (docs/RESULTS.md, "Multi-view
-  // stereo"), but one of its two whole-chain CI runs failed; it stays an option until that is understood.
-  int window_radius = 5;        // Half size of the matching window in pixels.
-  int window_step = 2;          // Sample every `window_step`-th pixel of the window (2: 36 samples for radius 5).
+  // The window is smaller than COLMAP's (radius 5, σ 5): near silhouettes, depth edges and on curved or
+  // slanted surfaces a wide window moves the cost minimum off the true depth (docs/RESULTS.md, "Multi-view
+  // stereo"); 7 × 7 samples with σ = 2 px were the best of the sizes tried on both synthetic scenes there.
+  // (Its one failed chain run was the mesh stage's crop box, fixed since; RESULTS, "Default window".)
+  int window_radius = 3;        // Half size of the matching window in pixels.
+  int window_step = 1;          // Sample every `window_step`-th pixel of the window (1: 49 samples for radius 3).
   double sigma_color = 0.2;     // Bilateral weight: grey-level scale (images in [0, 1]).
-  double sigma_spatial = 5.0;   // Bilateral weight: spatial scale in pixels.
+  double sigma_spatial = 2.0;   // Bilateral weight: spatial scale in pixels.
   int num_best_views = 3;       // Cost of a hypothesis = mean over its this-many best source views (Galliani 2015).
   // --- PatchMatch iterations (red-black propagation + random refinement)
   int num_iterations = 3;             // Photometric iterations (each updates every pixel twice: black, red).

@@ -175,6 +175,8 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
     lighting.UpdateCoefficients();
   }
   const bool solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
+  // Robust reweighting of the reflectance step (nothing to reweight when the reflectance is fixed).
+  const bool use_robust = solve_reflectance && o.robust_reflectance && o.robust_loss != "none";
   const TransportStore& transport = ctx.transport;
   const std::vector<uint32_t>& train = ctx.train;
 
@@ -206,15 +208,22 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
     }
     step.Restart();
     std::vector<float> responses = ComputeLobeResponses(transport, obs, train, lighting);
+    // Robust weights of the current model's residuals (this lighting, the previous reflectance),
+    // held fixed through this iteration: the reflectance step, the extrapolation test and the
+    // objective (the IRLS surrogate Σ α r (y − ŷ)²) all use them.
+    std::vector<float> robust;
+    if (use_robust) robust = ReflectanceRobustWeights(obs, train, responses, reflectance, o.robust_loss, o.robust_scale);
+    const std::vector<float>* robust_ptr = use_robust ? &robust : nullptr;
     if (solve_reflectance) {
       for (int inner = 0; inner < o.material_iterations; ++inner) {
-        SolveMaterials(obs, train, responses, &reflectance);
-        SolveWeights(obs, train, responses, o.sparsity, &reflectance, &ctx.neighbours, o.weight_smoothness);
+        SolveMaterials(obs, train, responses, &reflectance, robust_ptr);
+        SolveWeights(obs, train, responses, o.sparsity, &reflectance, &ctx.neighbours, o.weight_smoothness,
+                     robust_ptr);
       }
     }
     rec.reflectance_seconds = step.Seconds();
     double sse, weight;
-    ResidualStats(obs, train, responses, reflectance, &sse, &weight);
+    ResidualStats(obs, train, responses, reflectance, &sse, &weight, robust_ptr);
     if (o.accelerate && iter > 0 && solve_lighting && solve_reflectance) {
       // Try a few step lengths; the evaluation is cheap next to a lighting step.
       double best_step = 0;
@@ -224,7 +233,7 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
         Extrapolate(prev_lighting, prev_reflectance, trial, &cand_l, &cand_r);
         const std::vector<float> cand_resp = ComputeLobeResponses(transport, obs, train, cand_l);
         double cand_sse, cand_w;
-        ResidualStats(obs, train, cand_resp, cand_r, &cand_sse, &cand_w);
+        ResidualStats(obs, train, cand_resp, cand_r, &cand_sse, &cand_w, robust_ptr);
         if (cand_sse < sse) {
           sse = cand_sse;
           best_step = trial;
@@ -243,10 +252,15 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
       const Eigen::Vector3d g = GaugeScale(o.gauge, lighting, reflectance, ctx.observed);
       ApplyGauge(g, &lighting, &reflectance);
       responses = ComputeLobeResponses(transport, obs, train, lighting);
-      ResidualStats(obs, train, responses, reflectance, &sse, &weight);
+      ResidualStats(obs, train, responses, reflectance, &sse, &weight, robust_ptr);
     }
     rec.objective = sse;
-    rec.train_rmse = std::sqrt(sse / std::max(1e-30, weight));
+    {
+      // The reported RMSE stays the plain confidence-weighted one, comparable across iterations and runs.
+      double plain_sse = sse, plain_weight = weight;
+      if (use_robust) ResidualStats(obs, train, responses, reflectance, &plain_sse, &plain_weight);
+      rec.train_rmse = std::sqrt(plain_sse / std::max(1e-30, plain_weight));
+    }
     if (!ctx.holdout.empty()) {
       const std::vector<float> hr = ComputeLobeResponses(transport, obs, ctx.holdout, lighting);
       double hs, hw;

@@ -42,7 +42,9 @@ struct IterationRecord {
   int iteration = 0;
   double train_rmse = 0;          // confidence-weighted, over training observations (linear units)
   double holdout_rmse = 0;        // over held-out observations (0 when none)
-  double objective = 0;           // Σ α (y − ŷ)² over training observations
+  // Σ α r (y − ŷ)² over training observations, r the iteration's robust reflectance weights
+  // (inverse.robust_reflectance; r = 1 without): decides convergence and extrapolation.
+  double objective = 0;
   double lighting_seconds = 0;
   double reflectance_seconds = 0;
   std::vector<double> photo_rmse;  // lighting-subset RMSE per photo

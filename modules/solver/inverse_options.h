@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 2};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 3};
 
 struct InverseOptions {
   // Lighting representation.
@@ -34,6 +34,7 @@ struct InverseOptions {
   int irls_iterations = 2;              // reweighting passes per lighting step (restarted every step)
   std::string robust_loss = "huber";    // none, huber or cauchy
   double robust_scale = 2.0;            // robust threshold in units of the residuals' robust sigma
+  bool robust_reflectance = false;      // reweight the reflectance step's observations robustly too
   std::string qp_solver = "projected_newton";  // projected_newton or ceres
   int lighting_max_observations = 4096;        // per photo; a fixed random subset when there are more
   int coarse_iterations = 3;            // first iterations solve lighting at half resolution (haar)
@@ -92,9 +93,16 @@ struct InverseOptions {
     t->Add("irls_iterations", &irls_iterations,
            "Iteratively reweighted least-squares passes per lighting step (weights restart every step).")
         .Range(1, 20);
-    t->Add("robust_loss", &robust_loss, "Robust reweighting of the lighting fit.").Choices({"none", "huber", "cauchy"});
+    t->Add("robust_loss", &robust_loss,
+           "Robust reweighting of the lighting fit (and of the reflectance fit with robust_reflectance).")
+        .Choices({"none", "huber", "cauchy"});
     t->Add("robust_scale", &robust_scale, "Robust threshold in units of the residuals' robust standard deviation.")
         .Range(0.1, 100);
+    t->Add("robust_reflectance", &robust_reflectance,
+           "Reweight the reflectance step (materials and weights) too: every reflectance step starts from robust "
+           "weights of the current model's residuals (robust_loss, robust_scale, sigma per photo), so transient "
+           "occluders seen in few photos do not leak into the materials. The objective that decides convergence is "
+           "then the robustly weighted one. Off by default: without outliers it slows the joint fit (docs/RESULTS.md).");
     t->Add("qp_solver", &qp_solver,
            "Non-negative lighting QP: projected_newton (active-set Newton on the dense system) or ceres "
            "(bounded Levenberg-Marquardt; slower, kept for comparison).")

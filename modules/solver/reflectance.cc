@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
+#include "solver/lighting.h"
 #include "solver/qp.h"
 
 namespace relight {
@@ -153,6 +154,47 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
   return state;
 }
 
+std::vector<float> ReflectanceRobustWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                                            const std::vector<float>& responses, const ReflectanceState& state,
+                                            const std::string& loss, double scale) {
+  std::vector<float> out(train.size(), 1.0f);
+  if (loss == "none" || train.empty()) return out;
+  const int b_count = state.num_lobes();
+  // RGB residual magnitudes under the current model, as the lighting step measures them.
+  std::vector<double> residual(train.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, train.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    std::vector<float> rho(b_count * 3);
+    for (size_t k = r.begin(); k < r.end(); ++k) {
+      const Observation& ob = observations.records[train[k]];
+      state.VertexLobeWeights(ob.vertex, rho.data());
+      const float* resp = responses.data() + k * b_count * 3;
+      double e2 = 0;
+      for (int c = 0; c < 3; ++c) {
+        double pred = 0;
+        for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * resp[b * 3 + c];
+        const double e = ob.rgb[c] - pred;
+        e2 += e * e;
+      }
+      residual[k] = std::sqrt(e2);
+    }
+  });
+  // The robust sigma is per photo (exposure and lighting differ between photos).
+  std::vector<std::vector<uint32_t>> by_photo(observations.num_photos);
+  for (size_t k = 0; k < train.size(); ++k) {
+    const uint32_t photo = observations.records[train[k]].photo;
+    RELIGHT_CHECK(photo < by_photo.size()) << "observation of photo " << photo << " beyond num_photos";
+    by_photo[photo].push_back(static_cast<uint32_t>(k));
+  }
+  tbb::parallel_for(size_t(0), by_photo.size(), [&](size_t i) {
+    const std::vector<uint32_t>& positions = by_photo[i];
+    std::vector<double> r(positions.size());
+    for (size_t q = 0; q < positions.size(); ++q) r[q] = residual[positions[q]];
+    const std::vector<double> w = RobustWeights(r, loss, scale);
+    for (size_t q = 0; q < positions.size(); ++q) out[positions[q]] = static_cast<float>(w[q]);
+  });
+  return out;
+}
+
 std::vector<std::vector<uint32_t>> VertexNeighbours(const TriangleMesh& mesh) {
   std::vector<std::vector<uint32_t>> n(mesh.num_vertices());
   for (const auto& f : mesh.faces) {
@@ -170,7 +212,9 @@ std::vector<std::vector<uint32_t>> VertexNeighbours(const TriangleMesh& mesh) {
 
 void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
                   const std::vector<float>& responses, double sparsity, ReflectanceState* state,
-                  const std::vector<std::vector<uint32_t>>* neighbours, double smoothness) {
+                  const std::vector<std::vector<uint32_t>>* neighbours, double smoothness,
+                  const std::vector<float>* robust) {
+  RELIGHT_CHECK(robust == nullptr || robust->size() == train.size()) << "one robust weight per observation";
   const int m_count = state->num_materials, b_count = state->num_lobes();
   const size_t nv = state->weights.size() / m_count;
   const std::vector<float> previous = smoothness > 0 ? state->weights : std::vector<float>();
@@ -193,6 +237,7 @@ void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t
     for (uint32_t q = first[v]; q < first[v + 1]; ++q) {
       const uint32_t k = items[q];
       const Observation& ob = observations.records[train[k]];
+      const double alpha = robust != nullptr ? double(ob.confidence) * (*robust)[k] : double(ob.confidence);
       const float* resp = responses.data() + size_t(k) * b_count * 3;
       for (int c = 0; c < 3; ++c) {
         for (int m = 0; m < m_count; ++m) {
@@ -200,8 +245,8 @@ void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t
           for (int b = 0; b < b_count; ++b) s += state->coefficients[m * b_count + b][c] * resp[b * 3 + c];
           u[m] = s;
         }
-        g.noalias() += ob.confidence * u * u.transpose();
-        h += ob.confidence * ob.rgb[c] * u;
+        g.noalias() += alpha * u * u.transpose();
+        h += alpha * ob.rgb[c] * u;
       }
     }
   });
@@ -241,7 +286,9 @@ void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t
 }
 
 void SolveMaterials(const ObservationSet& observations, const std::vector<uint32_t>& train,
-                    const std::vector<float>& responses, ReflectanceState* state) {
+                    const std::vector<float>& responses, ReflectanceState* state,
+                    const std::vector<float>* robust) {
+  RELIGHT_CHECK(robust == nullptr || robust->size() == train.size()) << "one robust weight per observation";
   const int m_count = state->num_materials, b_count = state->num_lobes();
   const int dim = m_count * b_count;
   for (int c = 0; c < 3; ++c) {
@@ -255,12 +302,13 @@ void SolveMaterials(const ObservationSet& observations, const std::vector<uint32
       Eigen::VectorXd phi(dim);
       for (size_t k = r.begin(); k < r.end(); ++k) {
         const Observation& ob = observations.records[train[k]];
+        const double alpha = robust != nullptr ? double(ob.confidence) * (*robust)[k] : double(ob.confidence);
         const float* w = state->weights.data() + size_t(ob.vertex) * m_count;
         const float* resp = responses.data() + k * b_count * 3;
         for (int m = 0; m < m_count; ++m)
           for (int b = 0; b < b_count; ++b) phi[m * b_count + b] = double(w[m]) * resp[b * 3 + c];
-        a.g.selfadjointView<Eigen::Lower>().rankUpdate(phi, ob.confidence);
-        a.h += ob.confidence * ob.rgb[c] * phi;
+        a.g.selfadjointView<Eigen::Lower>().rankUpdate(phi, alpha);
+        a.h += alpha * ob.rgb[c] * phi;
       }
     });
     Eigen::MatrixXd g = Eigen::MatrixXd::Zero(dim, dim);
@@ -322,7 +370,9 @@ void FillUnobservedWeights(const TriangleMesh& mesh, const std::vector<char>& ob
 }
 
 void ResidualStats(const ObservationSet& observations, const std::vector<uint32_t>& ids,
-                   const std::vector<float>& responses, const ReflectanceState& state, double* sse, double* weight) {
+                   const std::vector<float>& responses, const ReflectanceState& state, double* sse, double* weight,
+                   const std::vector<float>* robust) {
+  RELIGHT_CHECK(robust == nullptr || robust->size() == ids.size()) << "one robust weight per observation";
   const int b_count = state.num_lobes();
   struct Acc {
     double sse = 0, w = 0;
@@ -333,15 +383,16 @@ void ResidualStats(const ObservationSet& observations, const std::vector<uint32_
     std::vector<float> rho(b_count * 3);
     for (size_t k = r.begin(); k < r.end(); ++k) {
       const Observation& ob = observations.records[ids[k]];
+      const double alpha = robust != nullptr ? double(ob.confidence) * (*robust)[k] : double(ob.confidence);
       state.VertexLobeWeights(ob.vertex, rho.data());
       const float* resp = responses.data() + k * b_count * 3;
       for (int c = 0; c < 3; ++c) {
         double pred = 0;
         for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * resp[b * 3 + c];
         const double e = ob.rgb[c] - pred;
-        a.sse += ob.confidence * e * e;
+        a.sse += alpha * e * e;
       }
-      a.w += 3 * ob.confidence;
+      a.w += 3 * alpha;
     }
   });
   *sse = 0;

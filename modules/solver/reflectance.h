@@ -7,8 +7,12 @@
 // Initialisation: k-means on (cos 2πH, sin 2πH, S) of the per-vertex mean
 // colours, each region's median colour as its diffuse colour, weights from
 // the distance to the centroids (§5.2, last paragraph).
+// Robust variant (not in the paper): every observation's confidence α_o is
+// multiplied by an IRLS weight r_o of its residual under the current model
+// (ReflectanceRobustWeights), as the lighting step does per photo.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "geometry/mesh.h"
@@ -27,26 +31,41 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
                                        size_t num_vertices, const std::vector<BrdfLobe>& basis, int num_materials,
                                        int seed);
 
+// Robust IRLS weights r_k of the observations train[k] under the current model
+// (`responses` as from ComputeLobeResponses over `train`): RobustWeights of the
+// RGB residual magnitudes |y − ŷ|, with the robust sigma (1.4826 × MAD) of each
+// photo's residuals. All 1 for loss "none".
+std::vector<float> ReflectanceRobustWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                                            const std::vector<float>& responses, const ReflectanceState& state,
+                                            const std::string& loss, double scale);
+
+// `robust` (optional, below): per-position weights r_k multiplying the
+// confidence of train[k] (ReflectanceRobustWeights); nullptr: all 1.
+
 // Weights step; `responses` as from ComputeLobeResponses over `train`. With
 // `smoothness` > 0 each vertex's weights are also pulled towards its mesh
 // neighbours' (Σ_edges |w_u − w_v|², weighted relative to the vertex's data term;
 // one Jacobi sweep per call).
 void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
                   const std::vector<float>& responses, double sparsity, ReflectanceState* state,
-                  const std::vector<std::vector<uint32_t>>* neighbours = nullptr, double smoothness = 0.0);
+                  const std::vector<std::vector<uint32_t>>* neighbours = nullptr, double smoothness = 0.0,
+                  const std::vector<float>* robust = nullptr);
 
 // Vertex adjacency of a mesh (each neighbour once).
 std::vector<std::vector<uint32_t>> VertexNeighbours(const TriangleMesh& mesh);
 
 // Materials step.
 void SolveMaterials(const ObservationSet& observations, const std::vector<uint32_t>& train,
-                    const std::vector<float>& responses, ReflectanceState* state);
+                    const std::vector<float>& responses, ReflectanceState* state,
+                    const std::vector<float>* robust = nullptr);
 
 // Weights of vertices without observations, by averaging over mesh neighbours (repeated diffusion).
 void FillUnobservedWeights(const TriangleMesh& mesh, const std::vector<char>& observed, ReflectanceState* state);
 
-// Weighted sum of squared residuals Σ α (y − ŷ)² and the weight sum over `ids`.
+// Weighted sum of squared residuals Σ α r (y − ŷ)² and the weight sum Σ 3 α r over `ids`
+// (r: `robust` per position in `ids`, or 1).
 void ResidualStats(const ObservationSet& observations, const std::vector<uint32_t>& ids,
-                   const std::vector<float>& responses, const ReflectanceState& state, double* sse, double* weight);
+                   const std::vector<float>& responses, const ReflectanceState& state, double* sse, double* weight,
+                   const std::vector<float>* robust = nullptr);
 
 }  // namespace relight
