@@ -138,6 +138,15 @@ TEST_F(RunnerTest, RawInputsEnterKeysByContent) {
   EXPECT_EQ(Statuses(Run(base_)), "alpha:cached beta:cached gamma:cached delta:cached ");
   std::ofstream(dir_ / "raw.txt") << "raw input v2";
   EXPECT_EQ(Statuses(Run(base_)), "alpha:done beta:done gamma:done delta:done ");
+  // A missing input: the message names the option and the path.
+  try {
+    Run("alpha:\n  value: 1\n  input: missing.txt\n");
+    ADD_FAILURE() << "a missing input must fail";
+  } catch (const UserError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("alpha.input"), std::string::npos) << what;
+    EXPECT_NE(what.find("missing.txt"), std::string::npos) << what;
+  }
 }
 
 TEST_F(RunnerTest, KilledStageResumesPerItemAndKeepsFinishedStages) {

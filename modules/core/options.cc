@@ -432,13 +432,21 @@ std::string OptionTable::CanonicalText(const std::function<std::string(const std
   for (const auto& f : fields_) {
     if (!f.in_key() || f.path_role() == PathRole::kOutput) continue;
     std::string value = f.ValueText();
+    // A missing input names the option that points at it.
+    auto keyed_digest = [&](const std::string& path) -> std::string {
+      try {
+        return digest(path);
+      } catch (const UserError& e) {
+        throw UserError(section_ + "." + f.name() + ": " + e.what());
+      }
+    };
     if (f.is_input_path()) {
       if (std::holds_alternative<std::vector<std::string>*>(f.target())) {
         std::vector<std::string> digests;
-        for (const auto& p : f.PathValues()) digests.push_back("sha256:" + digest(p));
+        for (const auto& p : f.PathValues()) digests.push_back("sha256:" + keyed_digest(p));
         value = "[" + JoinStrings(digests, ", ") + "]";
       } else {
-        value = f.StringValue().empty() ? "<none>" : "sha256:" + digest(f.StringValue());
+        value = f.StringValue().empty() ? "<none>" : "sha256:" + keyed_digest(f.StringValue());
       }
     }
     lines[section_ + "." + f.name()] = value;

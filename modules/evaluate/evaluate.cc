@@ -666,6 +666,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
                    {"accuracy_p90_relative", d.accuracy_p90 / d.diagonal},
                    {"completeness_p90_relative", d.completeness_p90 / d.diagonal},
                    {"samples", d.samples},
+                   {"estimate_samples_near_object", d.estimate_samples_near_object},
                    {"accuracy_region", context.num_faces() > 0 ? "object bounding box + 10%, vs object and occluders"
                                                                 : "whole estimate, vs object"}};
     } else {

@@ -160,6 +160,19 @@ TEST(SurfaceDistance, ReconstructedGroundIsNotAnErrorWithGroundContext) {
   EXPECT_LE(with.completeness_mean, 0.1 + 1e-3);
 }
 
+// The mesh stage once kept only the Poisson underside of the ground: no
+// estimate surface near the object. Scored whole, it is as far off as it is.
+TEST(SurfaceDistance, EstimateWithNothingNearTheObjectIsScoredWhole) {
+  const TriangleMesh truth = render_testing::Icosphere(1.0, Eigen::Vector3d(0, 0, 1), 4);
+  const TriangleMesh ground = render_testing::Plane(10, 0, 20);
+  const TriangleMesh estimate = render_testing::Plane(10, -5, 20);  // 5 below the ground, the box reaches -0.35
+  const MeshDistances d = CompareMeshes(estimate, truth, 5000, 1, &ground);
+  EXPECT_EQ(d.estimate_samples_near_object, 0u);
+  EXPECT_NEAR(d.accuracy_mean, 5.0, 1e-6);  // every sample 5 below the true ground
+  EXPECT_GT(d.completeness_mean, 5.0);      // the sphere's points lie 5 to 7 above the plane
+  EXPECT_LT(d.completeness_mean, 7.0);
+}
+
 TEST(SurfaceDistance, ConcentricSpheresAndInterpolation) {
   // Spheres of radius 1 and 1.1 (icospheres, 5 subdivisions: the faces lie within 2e-4 of the sphere).
   const TriangleMesh inner = render_testing::Icosphere(1.0, Eigen::Vector3d::Zero(), 5);

@@ -132,7 +132,12 @@ MeshDistances CompareMeshes(const TriangleMesh& estimate, const TriangleMesh& tr
     for (const Eigen::Vector3d& p : estimate_points) {
       if (box.contains(p)) inside.push_back(p);
     }
-    estimate_points = std::move(inside);
+    // An estimate with no surface around the object (a mesh stage that kept the
+    // wrong part) is scored whole: far from everything, not undefined.
+    d.estimate_samples_near_object = inside.size();
+    if (!inside.empty()) estimate_points = std::move(inside);
+  } else {
+    d.estimate_samples_near_object = estimate_points.size();
   }
   std::vector<double> acc = distances(estimate_points, truth_index, context_index.get());
   std::vector<double> comp = distances(SampleSurfaceUniform(truth, samples, seed + 1), estimate_index, nullptr);

@@ -50,11 +50,13 @@ struct MeshDistances {
   double accuracy_p90 = 0;       // 90th percentile of the estimate->truth distances
   double completeness_p90 = 0;
   size_t samples = 0;  // per mesh
+  size_t estimate_samples_near_object = 0;  // estimate samples in the accuracy region (see below)
 };
 // With `truth_context` (the true ground and blockers around the object), accuracy
 // uses only the estimate's samples inside the object's bounding box grown by 10%
 // of its diagonal, scored against the nearest true surface (object or context):
-// a reconstruction may rightly include the ground the object stands on.
+// a reconstruction may rightly include the ground the object stands on. When
+// none lies there, all the estimate's samples count.
 // Completeness is always the object's samples against the estimate.
 MeshDistances CompareMeshes(const TriangleMesh& estimate, const TriangleMesh& truth, size_t samples, uint64_t seed = 1,
                             const TriangleMesh* truth_context = nullptr);
