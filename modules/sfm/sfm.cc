@@ -807,9 +807,12 @@ SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, cons
   Timer timer;
   const IngestSummary ingest = ReadIngestManifest(ingest_dir);
   const int n = static_cast<int>(ingest.photos.size());
-  if (n < 3) {
+  if (options.mode == "colmap" && n < 3) {
     RELIGHT_USER_ERROR() << "structure from motion needs at least 3 photos, but " << ingest_dir
                          << "/manifest.json lists " << n << "; add photos of the object from more viewpoints";
+  }
+  if (n < 1) {  // given cameras (ground_truth, model): any number of photos will do
+    RELIGHT_USER_ERROR() << ingest_dir << "/manifest.json lists no photos; add photos of the object";
   }
   SfmSummary summary;
   summary.mode = options.mode;

@@ -208,13 +208,24 @@ TEST(SfmErrors, FewerThanThreePhotos) {
   ASSERT_TRUE(testing::HasSharedData(kTemple));
   testing::TempDir dir;
   fs::create_directories(dir / "photos");
-  fs::copy_file(TempleDir() + "/templeSR0001.png", dir / "photos/a.png");
-  fs::copy_file(TempleDir() + "/templeSR0002.png", dir / "photos/b.png");
+  fs::copy_file(TempleDir() + "/templeSR0001.png", dir / "photos/templeSR0001.png");
+  fs::copy_file(TempleDir() + "/templeSR0002.png", dir / "photos/templeSR0002.png");
   Ingest(dir / "photos", dir / "ingest", /*min_photos=*/1);
   fs::create_directories(dir / "sfm");
   const std::string message = ErrorOf([&] { RunSfm(SfmOptions(), dir / "ingest", dir / "sfm"); });
   EXPECT_NE(message.find("at least 3 photos"), std::string::npos) << message;
   EXPECT_NE(message.find("manifest.json"), std::string::npos) << message;
+  // With given cameras two photos are enough (nothing is triangulated from them) once
+  // sfm.min_registered allows it.
+  fs::create_directories(dir / "gt");
+  TempleTruth().WriteText(dir / "gt");
+  SfmOptions given;
+  given.mode = "model";
+  given.model = dir / "gt";
+  given.min_registered = 2;
+  fs::create_directories(dir / "sfm_model");
+  const SfmSummary summary = RunSfm(given, dir / "ingest", dir / "sfm_model");
+  EXPECT_EQ(summary.num_registered, 2);
 }
 
 TEST(SfmErrors, NothingRegistered) {
