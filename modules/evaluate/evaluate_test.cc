@@ -173,7 +173,7 @@ TEST(SurfaceDistance, EstimateWithNothingNearTheObjectIsScoredWhole) {
   EXPECT_LT(d.completeness_mean, 7.0);
 }
 
-TEST(SurfaceDistance, ConcentricSpheresAndInterpolation) {
+TEST(SurfaceDistance, ConcentricSpheresAreATenthApart) {
   // Spheres of radius 1 and 1.1 (icospheres, 5 subdivisions: the faces lie within 2e-4 of the sphere).
   const TriangleMesh inner = render_testing::Icosphere(1.0, Eigen::Vector3d::Zero(), 5);
   const TriangleMesh outer = render_testing::Icosphere(1.1, Eigen::Vector3d::Zero(), 5);
@@ -182,17 +182,7 @@ TEST(SurfaceDistance, ConcentricSpheresAndInterpolation) {
   EXPECT_NEAR(d.completeness_mean, 0.1, 1e-3);
   EXPECT_NEAR(d.chamfer, 0.1, 1e-3);
   EXPECT_NEAR(d.diagonal, 2 * std::sqrt(3.0), 1e-3);
-  // A linear function interpolated at closest points equals its value there.
-  TriangleMesh tri;
-  tri.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  tri.faces = {{0, 1, 2}};
-  const std::vector<float> f = {1.0f, 3.0f, 5.0f};  // f = 1 + 2x + 4y
-  const SurfaceIndex index(tri);
-  const ClosestPoint c = index.Query(Eigen::Vector3d(0.2, 0.3, 0.7));
-  EXPECT_NEAR(c.distance, 0.7, 1e-12);
-  EXPECT_NEAR(index.Interpolate(c, f), 1 + 2 * 0.2 + 4 * 0.3, 1e-9);
-  const ClosestPoint outside = index.Query(Eigen::Vector3d(2, 2, 0));  // nearest: the edge point (0.5, 0.5)
-  EXPECT_NEAR(index.Interpolate(outside, f), 1 + 1 + 2, 1e-9);
+  // Closest points and their interpolation: geometry/mesh_distance_test.cc.
 }
 
 TEST(LeaveOneOut, RestrictAndSpread) {

@@ -1,45 +1,17 @@
-// Closest points on a triangle mesh (CGAL AABB tree) and the geometry errors
-// the evaluation reports: per-vertex correspondence between a recovered mesh
-// and the true one (to compare albedo on different meshes) and the symmetric
-// Chamfer distance from area-uniform surface samples (docs/METRICS.md).
+// The geometry errors the evaluation reports between a recovered mesh and the
+// true one: the symmetric Chamfer distance from area-uniform surface samples,
+// with accuracy measured near the object only (docs/METRICS.md). Closest
+// points (SurfaceIndex, also used for the per-vertex albedo correspondence)
+// and the sampler are geometry's: mesh_distance.h, surface_sampling.h.
 #pragma once
 
-#include <Eigen/Core>
-#include <memory>
+#include <cstdint>
 #include <vector>
 
 #include "geometry/mesh.h"
+#include "geometry/mesh_distance.h"  // SurfaceIndex, ClosestPoint
 
 namespace relight {
-
-// The nearest surface point of a mesh.
-struct ClosestPoint {
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();
-  int face = -1;
-  Eigen::Vector3d barycentric = Eigen::Vector3d::Zero();  // weights of the face's vertices 0, 1, 2
-  double distance = 0;
-};
-
-// Closest-point queries against a fixed mesh (thread-safe after construction).
-class SurfaceIndex {
- public:
-  // The mesh must outlive the index and have at least one face.
-  explicit SurfaceIndex(const TriangleMesh& mesh);
-  ~SurfaceIndex();
-  SurfaceIndex(const SurfaceIndex&) = delete;
-  SurfaceIndex& operator=(const SurfaceIndex&) = delete;
-  ClosestPoint Query(const Eigen::Vector3d& p) const;
-  // Interpolates a per-vertex property at a closest point.
-  double Interpolate(const ClosestPoint& c, const std::vector<float>& values) const;
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-  const TriangleMesh& mesh_;
-};
-
-// `count` points uniform over the surface area (deterministic for a seed).
-std::vector<Eigen::Vector3d> SampleSurfaceUniform(const TriangleMesh& mesh, size_t count, uint64_t seed);
 
 // Distances between two surfaces in one frame.
 struct MeshDistances {

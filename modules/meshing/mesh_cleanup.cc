@@ -20,11 +20,13 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <unordered_map>
+#include <optional>
+#include <utility>
 
 #include "core/error.h"
 #include "core/log.h"
 #include "core/timer.h"
+#include "geometry/point_grid.h"
 
 namespace relight {
 namespace {
@@ -81,16 +83,13 @@ TriangleMesh FromSurfaceMesh(const SurfaceMesh& mesh) {
 }
 
 // Data points per component: each point counts for the component of its
-// nearest vertex within `radius` (a hash grid of cell `radius`, 27 cells).
+// nearest vertex within `radius` (a PointGrid of cell `radius`).
 std::vector<double> ComponentSupport(const SurfaceMesh& mesh, const SurfaceMesh::Property_map<Face, std::size_t>& fcc,
                                      std::size_t num, const std::vector<Eigen::Vector3d>& points, double radius) {
   std::vector<double> support(num, 0.0);
   if (radius <= 0 || points.empty()) return support;
-  auto cell = [radius](double x) { return static_cast<int64_t>(std::floor(x / radius)); };
-  auto key = [](int64_t x, int64_t y, int64_t z) {
-    return (x & 0x1FFFFF) | ((y & 0x1FFFFF) << 21) | ((z & 0x1FFFFF) << 42);
-  };
-  std::unordered_map<int64_t, std::vector<std::pair<Eigen::Vector3d, std::size_t>>> grid;
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<std::size_t> vertex_component;
   for (auto v : mesh.vertices()) {
     const auto h = mesh.halfedge(v);
     if (h == SurfaceMesh::null_halfedge()) continue;
@@ -98,27 +97,12 @@ std::vector<double> ComponentSupport(const SurfaceMesh& mesh, const SurfaceMesh:
     if (f == SurfaceMesh::null_face()) f = mesh.face(mesh.opposite(h));
     if (f == SurfaceMesh::null_face()) continue;
     const Point& p = mesh.point(v);
-    const Eigen::Vector3d x(p.x(), p.y(), p.z());
-    grid[key(cell(x.x()), cell(x.y()), cell(x.z()))].emplace_back(x, fcc[f]);
+    vertices.emplace_back(p.x(), p.y(), p.z());
+    vertex_component.push_back(fcc[f]);
   }
+  const PointGrid grid(std::move(vertices), radius);
   for (const Eigen::Vector3d& p : points) {
-    const int64_t cx = cell(p.x()), cy = cell(p.y()), cz = cell(p.z());
-    double best = radius * radius;
-    std::size_t best_component = num;
-    for (int64_t dx = -1; dx <= 1; ++dx)
-      for (int64_t dy = -1; dy <= 1; ++dy)
-        for (int64_t dz = -1; dz <= 1; ++dz) {
-          const auto it = grid.find(key(cx + dx, cy + dy, cz + dz));
-          if (it == grid.end()) continue;
-          for (const auto& [x, c] : it->second) {
-            const double d2 = (x - p).squaredNorm();
-            if (d2 <= best) {
-              best = d2;
-              best_component = c;
-            }
-          }
-        }
-    if (best_component < num) support[best_component] += 1;
+    if (const std::optional<std::size_t> nearest = grid.Nearest(p, radius)) support[vertex_component[*nearest]] += 1;
   }
   return support;
 }

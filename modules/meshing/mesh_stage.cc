@@ -8,9 +8,9 @@
 #include <algorithm>
 #include <atomic>
 #include <filesystem>
+#include <optional>
 #include <random>
 #include <sstream>
-#include <unordered_set>
 
 #include "core/error.h"
 #include "core/fs.h"
@@ -18,6 +18,7 @@
 #include "core/log.h"
 #include "core/timer.h"
 #include "geometry/mesh_io.h"
+#include "geometry/point_grid.h"
 #include "geometry/raycaster.h"
 
 namespace relight {
@@ -143,16 +144,8 @@ TriangleMesh CropMesh(const TriangleMesh& mesh, const CropRegion& region, size_t
   std::vector<uint8_t> keep(mesh.faces.size(), 1);
   // Occupied voxels of the data points (cell = max_distance).
   const bool use_distance = region.points != nullptr && !region.points->empty() && region.max_distance > 0;
-  std::unordered_set<int64_t> occupied;
-  auto cell_key = [&](const Eigen::Vector3d& p, int dx, int dy, int dz) {
-    const int64_t ix = static_cast<int64_t>(std::floor(p.x() / region.max_distance)) + dx;
-    const int64_t iy = static_cast<int64_t>(std::floor(p.y() / region.max_distance)) + dy;
-    const int64_t iz = static_cast<int64_t>(std::floor(p.z() / region.max_distance)) + dz;
-    return ((ix & 0x1FFFFF) << 42) | ((iy & 0x1FFFFF) << 21) | (iz & 0x1FFFFF);
-  };
-  if (use_distance) {
-    for (const auto& p : *region.points) occupied.insert(cell_key(p, 0, 0, 0));
-  }
+  std::optional<PointGrid> data_grid;
+  if (use_distance) data_grid.emplace(*region.points, region.max_distance);
   std::atomic<size_t> by_distance{0};
   std::vector<const ImageRecord*> images;
   if (region.cameras != nullptr) {
@@ -167,16 +160,10 @@ TriangleMesh CropMesh(const TriangleMesh& mesh, const CropRegion& region, size_t
       ++by_box;
       return;
     }
-    if (use_distance) {
-      bool near = false;
-      for (int dx = -1; dx <= 1 && !near; ++dx)
-        for (int dy = -1; dy <= 1 && !near; ++dy)
-          for (int dz = -1; dz <= 1 && !near; ++dz) near = occupied.count(cell_key(c, dx, dy, dz)) > 0;
-      if (!near) {
-        keep[f] = 0;
-        ++by_distance;
-        return;
-      }
+    if (use_distance && !data_grid->AnyPointInNeighbourCells(c)) {
+      keep[f] = 0;
+      ++by_distance;
+      return;
     }
     if (min_views > 0) {
       int views = 0;

@@ -1,9 +1,10 @@
-// Geometry metrics of dense reconstructions against ground truth, with
-// distances measured by CGAL's AABB tree (points to triangles) and k-d tree
-// (points to points): accuracy / completeness of point clouds at a distance
-// threshold (Seitz et al. 2006, Knapitsch et al. 2017), the symmetric Chamfer
-// distance of two meshes from area-uniform surface samples, and the edge
-// topology that says whether a mesh is closed.
+// Geometry metrics of dense reconstructions against ground truth:
+// accuracy / completeness of point clouds at a distance threshold (Seitz et
+// al. 2006, Knapitsch et al. 2017), with points-to-points distances by CGAL's
+// k-d tree; the symmetric Chamfer distance of two meshes from area-uniform
+// surface samples; and the edge topology that says whether a mesh is closed.
+// Surface sampling and point-to-mesh distances are geometry's
+// (surface_sampling.h, mesh_distance.h), included here for mvs code.
 #pragma once
 
 #include <Eigen/Core>
@@ -11,6 +12,8 @@
 #include <vector>
 
 #include "geometry/mesh.h"
+#include "geometry/mesh_distance.h"     // DistancesToMesh
+#include "geometry/surface_sampling.h"  // SampleSurface
 
 namespace relight {
 
@@ -24,10 +27,6 @@ struct MeshTopology {
 };
 MeshTopology AnalyzeTopology(const TriangleMesh& mesh);
 
-// `count` points uniform over the surface area (deterministic for a seed).
-std::vector<Eigen::Vector3f> SampleSurface(const TriangleMesh& mesh, size_t count, uint64_t seed);
-// Distance of each point to the nearest point of the mesh surface.
-std::vector<double> DistancesToMesh(const std::vector<Eigen::Vector3f>& points, const TriangleMesh& mesh);
 // Distance of each query to the nearest of `points`.
 std::vector<double> DistancesToPoints(const std::vector<Eigen::Vector3f>& queries,
                                       const std::vector<Eigen::Vector3f>& points);

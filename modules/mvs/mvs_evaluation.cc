@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -47,6 +48,8 @@ OrderedJson MvsEvaluation::ToJson() const {
   j["min_depth_completeness_object_range"] = min_depth_completeness;
   j["mean_depth_completeness_scene_range"] = mean_depth_completeness_scene;
   j["min_depth_completeness_scene_range"] = min_depth_completeness_scene;
+  j["mean_depth_completeness_visible"] = mean_depth_completeness_visible;
+  j["min_depth_completeness_visible"] = min_depth_completeness_visible;
   j["mean_missing"] = mean_missing;
   j["mean_completeness_interior_object_range"] = mean_completeness_interior;
   j["mean_completeness_edge_object_range"] = mean_completeness_edge;
@@ -67,6 +70,8 @@ OrderedJson MvsEvaluation::ToJson() const {
                     {"scene_depth_range", v.scene_depth_range},
                     {"completeness_object_range", v.completeness},
                     {"completeness_scene_range", v.completeness_scene},
+                    {"visible_pixels", v.visible_pixels},
+                    {"completeness_visible", v.completeness_visible},
                     {"missing", v.missing},
                     {"edge_fraction", v.edge_fraction},
                     {"completeness_interior_object_range", v.completeness_interior},
@@ -84,7 +89,8 @@ std::string MvsEvaluation::BriefReport() const {
   s << "depth maps (" << map_type << ", " << views.size() << " views): completeness within 1% of the object's "
     << "depth range mean " << mean_depth_completeness << ", min " << min_depth_completeness
     << "; of the scene's depth range mean " << mean_depth_completeness_scene << ", min "
-    << min_depth_completeness_scene << "\n";
+    << min_depth_completeness_scene << "; every visible pixel (ground included), scene range, mean "
+    << mean_depth_completeness_visible << ", min " << min_depth_completeness_visible << "\n";
   s << "depth maps: object pixels without depth " << mean_missing << "; completeness (object range) inside "
     << mean_completeness_interior << ", at silhouettes/depth edges " << mean_completeness_edge << "\n";
   s << "fused: " << fused_points << " points in the object's box, accuracy " << fused_accuracy
@@ -203,59 +209,70 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
     }
     const Eigen::Matrix3d true_world_from_cam = true_view.R_cam_from_world.transpose();
     const Eigen::Vector3d true_center = true_view.CenterWorld();
-    size_t good = 0, good_scene = 0, missing = 0, edge_pixels = 0, good_edge = 0;
+    size_t good = 0, good_scene = 0, missing = 0, edge_pixels = 0, good_edge = 0, good_visible = 0;
     std::vector<double> errors, signed_errors;
+    // Our depth error (in the truth's units, signed: ours - true) at the true pixel (x, y), or nothing when our
+    // map has no depth there.
+    const auto depth_error = [&](int x, int y) -> std::optional<double> {
+      // The true point of this pixel, seen from our (aligned) camera.
+      const Eigen::Vector3d ray_true_cam =
+          true_camera.NormalizedFromImage(Eigen::Vector2d(x + 0.5, y + 0.5)).homogeneous();
+      const Eigen::Vector3d X_true = true_center + true_world_from_cam * (ray_true_cam * true_depth.at(x, y));
+      const Eigen::Vector3d X_est = est_view.R_cam_from_world * est_from_true.Apply(X_true) + est_view.t_cam_from_world;
+      if (!(X_est.z() > 0)) return std::nullopt;
+      const Eigen::Vector3d p = est_view.K * (X_est / X_est.z());
+      const int col = static_cast<int>(std::floor(p.x())), row = static_cast<int>(std::floor(p.y()));
+      if (col < 0 || row < 0 || col >= map.width || row >= map.height || !(map.depth[map.index(col, row)] > 0)) {
+        return std::nullopt;
+      }
+      // Our point on the ray through the true point: our pixel's plane intersected with that ray, else
+      // (a plane seen edge-on) the pixel centre's point. The centre lies up to half a pixel beside the
+      // ray wherever our pixel grid is not the true one (smaller maps, undistorted image sizes), which on
+      // a slanted surface is a depth error of the scoring, not of the map.
+      const size_t k = map.index(col, row);
+      const Eigen::Vector3d ray_center = est_view.K.inverse() * Eigen::Vector3d(col + 0.5, row + 0.5, 1.0);
+      Eigen::Vector3d Y_est_cam = ray_center * map.depth[k];
+      if (options.intersect_planes) {
+        const Eigen::Vector3d n = map.normal_cam[k].cast<double>();
+        const Eigen::Vector3d ray = est_view.K.inverse() * Eigen::Vector3d(p.x(), p.y(), 1.0);
+        const double denom = n.dot(ray);
+        if (denom < -1e-3) {
+          const double t = n.dot(Y_est_cam) / denom;
+          if (t > 0.5 * map.depth[k] && t < 2.0 * map.depth[k]) Y_est_cam = t * ray;
+        }
+      }
+      const Eigen::Vector3d Y_est_world =
+          est_view.R_cam_from_world.transpose() * (Y_est_cam - est_view.t_cam_from_world);
+      const double z =
+          (true_view.R_cam_from_world * true_from_est.Apply(Y_est_world) + true_view.t_cam_from_world).z();
+      return z - true_depth.at(x, y);
+    };
     for (int y = 0; y < true_depth.height; ++y) {
       for (int x = 0; x < true_depth.width; ++x) {
+        if (!(true_depth.at(x, y) > 0)) continue;
+        ++score.visible_pixels;
+        const std::optional<double> signed_error = depth_error(x, y);
+        const double error = signed_error ? std::abs(*signed_error) : 0.0;
+        if (signed_error && error <= tolerance_scene) ++good_visible;
         if (!is_object(x, y)) continue;
         ++score.object_pixels;
         const bool on_edge = edge[size_t(y) * W + x] != 0;
         edge_pixels += on_edge;
-        // The true point of this pixel, seen from our (aligned) camera.
-        const Eigen::Vector3d ray_true_cam =
-            true_camera.NormalizedFromImage(Eigen::Vector2d(x + 0.5, y + 0.5)).homogeneous();
-        const Eigen::Vector3d X_true = true_center + true_world_from_cam * (ray_true_cam * true_depth.at(x, y));
-        const Eigen::Vector3d X_est = est_view.R_cam_from_world * est_from_true.Apply(X_true) + est_view.t_cam_from_world;
-        bool found = false;
-        if (X_est.z() > 0) {
-          const Eigen::Vector3d p = est_view.K * (X_est / X_est.z());
-          const int col = static_cast<int>(std::floor(p.x())), row = static_cast<int>(std::floor(p.y()));
-          if (col >= 0 && row >= 0 && col < map.width && row < map.height && map.depth[map.index(col, row)] > 0) {
-            // Our point on the ray through the true point: our pixel's plane intersected with that ray, else
-            // (a plane seen edge-on) the pixel centre's point. The centre lies up to half a pixel beside the
-            // ray wherever our pixel grid is not the true one (smaller maps, undistorted image sizes), which on
-            // a slanted surface is a depth error of the scoring, not of the map.
-            const size_t k = map.index(col, row);
-            const Eigen::Vector3d ray_center = est_view.K.inverse() * Eigen::Vector3d(col + 0.5, row + 0.5, 1.0);
-            Eigen::Vector3d Y_est_cam = ray_center * map.depth[k];
-            if (options.intersect_planes) {
-              const Eigen::Vector3d n = map.normal_cam[k].cast<double>();
-              const Eigen::Vector3d ray = est_view.K.inverse() * Eigen::Vector3d(p.x(), p.y(), 1.0);
-              const double denom = n.dot(ray);
-              if (denom < -1e-3) {
-                const double t = n.dot(Y_est_cam) / denom;
-                if (t > 0.5 * map.depth[k] && t < 2.0 * map.depth[k]) Y_est_cam = t * ray;
-              }
-            }
-            const Eigen::Vector3d Y_est_world =
-                est_view.R_cam_from_world.transpose() * (Y_est_cam - est_view.t_cam_from_world);
-            const double z = (true_view.R_cam_from_world * true_from_est.Apply(Y_est_world) +
-                              true_view.t_cam_from_world).z();
-            const double error = std::abs(z - true_depth.at(x, y));
-            errors.push_back(error / (hi - lo));
-            signed_errors.push_back((z - true_depth.at(x, y)) / (hi - lo));
-            if (error <= tolerance) ++good, good_edge += on_edge;
-            if (error <= tolerance_scene) ++good_scene;
-            found = true;
-          }
+        if (!signed_error) {
+          ++missing;
+          continue;
         }
-        if (!found) ++missing;
+        errors.push_back(error / (hi - lo));
+        signed_errors.push_back(*signed_error / (hi - lo));
+        if (error <= tolerance) ++good, good_edge += on_edge;
+        if (error <= tolerance_scene) ++good_scene;
       }
     }
     if (score.object_pixels == 0) continue;
     score.completeness = double(good) / score.object_pixels;
     score.completeness_scene = double(good_scene) / score.object_pixels;
     score.missing = double(missing) / score.object_pixels;
+    score.completeness_visible = double(good_visible) / score.visible_pixels;
     score.edge_fraction = double(edge_pixels) / score.object_pixels;
     const size_t interior_pixels = score.object_pixels - edge_pixels;
     score.completeness_interior = interior_pixels > 0 ? double(good - good_edge) / interior_pixels : 0.0;
@@ -265,13 +282,15 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
     result.views.push_back(score);
   }
   if (!result.views.empty()) {
-    result.min_depth_completeness = result.min_depth_completeness_scene = 1;
+    result.min_depth_completeness = result.min_depth_completeness_scene = result.min_depth_completeness_visible = 1;
     const double n = double(result.views.size());
     for (const auto& v : result.views) {
       result.mean_depth_completeness += v.completeness / n;
       result.min_depth_completeness = std::min(result.min_depth_completeness, v.completeness);
       result.mean_depth_completeness_scene += v.completeness_scene / n;
       result.min_depth_completeness_scene = std::min(result.min_depth_completeness_scene, v.completeness_scene);
+      result.mean_depth_completeness_visible += v.completeness_visible / n;
+      result.min_depth_completeness_visible = std::min(result.min_depth_completeness_visible, v.completeness_visible);
       result.mean_missing += v.missing / n;
       result.mean_completeness_interior += v.completeness_interior / n;
       result.mean_completeness_edge += v.completeness_edge / n;

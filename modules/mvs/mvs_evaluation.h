@@ -8,7 +8,9 @@
 //    (the stricter figure), and over the whole scene, i.e. every pixel with a
 //    true depth, ground and blockers included (issue 9's wording, "1% of the
 //    scene depth range"); plus where the rest goes (no depth, wrong depth,
-//    near silhouettes and depth edges or inside);
+//    near silhouettes and depth edges or inside); and the same scene-range
+//    figure over every visible pixel (every pixel with a true depth: object,
+//    ground and blockers), issue 9's "visible pixels" read literally;
 //  - fused points: accuracy (fraction within `accuracy_threshold` of the true
 //    surfaces) and completeness (fraction of object surface samples within
 //    `completeness_threshold` of a fused point), thresholds as fractions of the
@@ -54,6 +56,8 @@ struct ViewDepthScore {
   double completeness = 0;        // fraction of the object's pixels within tolerance × object_depth_range
   double completeness_scene = 0;  // fraction of the object's pixels within tolerance × scene_depth_range
   double missing = 0;             // fraction of them without a depth
+  size_t visible_pixels = 0;      // pixels with a true depth (object, ground, blockers)
+  double completeness_visible = 0;  // fraction of the visible pixels within tolerance × scene_depth_range
   double edge_fraction = 0;       // fraction of them in the silhouette/edge band
   double completeness_interior = 0;  // completeness (object range) over the pixels outside the band
   double completeness_edge = 0;      // ... inside the band
@@ -71,6 +75,8 @@ struct MvsEvaluation {
   double min_depth_completeness = 0;
   double mean_depth_completeness_scene = 0;  // tolerance: of the view's depth range over the scene (issue 9)
   double min_depth_completeness_scene = 0;
+  double mean_depth_completeness_visible = 0;  // scene range, over every visible pixel (object and ground)
+  double min_depth_completeness_visible = 0;
   double mean_missing = 0;                   // object pixels without a depth
   double mean_completeness_interior = 0;     // object range, outside / inside the edge band
   double mean_completeness_edge = 0;

@@ -292,6 +292,54 @@ TEST_F(MvsTest, SourceSelectionPicksNeighboursAndBoundsTheTrueDepths) {
   }
 }
 
+TEST_F(MvsTest, SourceSelectionSkipsViewsFromTheFarSide) {
+  // A ring of 8 cameras (45° apart) around the origin. The reference (view 0) shares 30 sparse points with its
+  // neighbour (view 1, 45° triangulation angle) and 60 with the camera opposite (view 4, about 180°), as a
+  // ground mosaic matched from both sides of a ring would. Ranked by shared points alone, as COLMAP's
+  // __auto__ selection does, the opposite view wins; counted only up to max_triangulation_angle_deg (90°),
+  // the neighbour does.
+  const Camera camera = Camera::Pinhole(1, 96, 72, 90, 90, 48, 36);
+  std::vector<Eigen::Vector3d> centers;
+  for (int k = 0; k < 8; ++k) centers.emplace_back(4 * std::cos(k * M_PI / 4), 4 * std::sin(k * M_PI / 4), 0);
+  Reconstruction model;
+  model.cameras[1] = camera;
+  for (const ImageRecord& image : mvs_test::LookAtCameras(centers, Eigen::Vector3d::Zero()))
+    model.images[image.image_id] = image;
+  std::vector<uint32_t> ids;
+  for (const auto& [id, image] : model.images) ids.push_back(id);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> uniform(-0.3, 0.3);
+  uint64_t next_id = 1;
+  const auto add_points = [&](int count, uint32_t a, uint32_t b) {
+    for (int k = 0; k < count; ++k) {
+      Point3D point;
+      point.point3d_id = next_id++;
+      point.xyz = Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+      point.track = {{a, 0}, {b, 0}};
+      model.points3d[point.point3d_id] = point;
+    }
+  };
+  add_points(30, ids[0], ids[1]);
+  add_points(60, ids[0], ids[4]);
+  std::vector<StereoView> views;
+  for (const auto& [id, image] : model.images) views.push_back(MakeStereoView(model, image, 0));
+  MvsOptions options;
+  options.max_source_images = 1;
+  const std::vector<ViewSelection> plans = SelectViews(model, views, options);
+  ASSERT_TRUE(plans[0].skip_reason.empty()) << plans[0].skip_reason;
+  ASSERT_EQ(plans[0].sources.size(), 1u);
+  EXPECT_EQ(views[plans[0].sources[0]].image_id, ids[1]);
+  EXPECT_EQ(plans[0].shared_points[0], 30);
+  EXPECT_NEAR(plans[0].median_angle_deg[0], 45.0, 10.0);
+  // View 4 shares points with the reference only, at about 180°: it gets no source at all.
+  EXPECT_FALSE(plans[4].skip_reason.empty());
+  options.max_triangulation_angle_deg = 180;
+  const std::vector<ViewSelection> unbounded = SelectViews(model, views, options);
+  ASSERT_EQ(unbounded[0].sources.size(), 1u);
+  EXPECT_EQ(views[unbounded[0].sources[0]].image_id, ids[4]);
+  EXPECT_EQ(unbounded[0].shared_points[0], 60);
+}
+
 TEST_F(MvsTest, StereoFusionFusesOurMapsOntoTheSurface) {
   // True depth and normal maps of a slanted plane, written in our format: COLMAP's stereo_fusion must read
   // them and put every fused point on the plane (a half-pixel convention error would miss it by ~5e-3).
@@ -340,7 +388,9 @@ TEST_F(MvsTest, EvaluationScoresDepthMapsAgainstObjectAndSceneRanges) {
   // only), 2: +0.05 (outside both), 3: no depth. Closed forms: object-range completeness 1/4, scene-range 1/2,
   // missing 1/4, median error 0.05 / 0.2; with a 3-pixel edge band the interior is columns 19..44 × rows
   // 15..32 (468 of 768 pixels), 7 of its 26 columns are good (7/26), and the band keeps 66 good of 300 (0.22).
-  // Every error is at least a factor 2 from a threshold, so the counts are exact in float.
+  // Every error is at least a factor 2 from a threshold, so the counts are exact in float. The background is
+  // exact except rows 0..5, which have no depth: over every visible pixel (64 × 48) the scene-range completeness
+  // is (2304 - 384 background + 384 object) / 3072 = 0.75.
   const Camera camera = Camera::Pinhole(1, 64, 48, 60, 60, 32, 24);
   Reconstruction model;
   model.cameras[1] = camera;
@@ -367,7 +417,7 @@ TEST_F(MvsTest, EvaluationScoresDepthMapsAgainstObjectAndSceneRanges) {
         const size_t i = map.index(x, y);
         map.normal_cam[i] = Eigen::Vector3f(0, 0, -1);  // fronto-parallel: the COLMAP conversion keeps the depth
         if (!in_object(x, y)) {
-          map.depth[i] = 5.0f;
+          map.depth[i] = y < 6 ? 0.0f : 5.0f;
           continue;
         }
         depth.at(x, y) = 3.0f + 0.2f * float(x - 16) / 31.0f;
@@ -393,6 +443,8 @@ TEST_F(MvsTest, EvaluationScoresDepthMapsAgainstObjectAndSceneRanges) {
     EXPECT_NEAR(v.completeness, 0.25, 1e-12) << v.name;
     EXPECT_NEAR(v.completeness_scene, 0.5, 1e-12) << v.name;
     EXPECT_NEAR(v.missing, 0.25, 1e-12) << v.name;
+    EXPECT_EQ(v.visible_pixels, 3072u) << v.name;
+    EXPECT_NEAR(v.completeness_visible, 0.75, 1e-12) << v.name;
     EXPECT_NEAR(v.median_error, 0.05, 1e-4) << v.name;  // float depths near 3: ~1e-7 off
     EXPECT_NEAR(v.edge_fraction, 300.0 / 768.0, 1e-12) << v.name;
     EXPECT_NEAR(v.completeness_interior, 7.0 / 26.0, 1e-12) << v.name;
@@ -402,6 +454,8 @@ TEST_F(MvsTest, EvaluationScoresDepthMapsAgainstObjectAndSceneRanges) {
   EXPECT_NEAR(e.min_depth_completeness, 0.25, 1e-12);
   EXPECT_NEAR(e.mean_depth_completeness_scene, 0.5, 1e-12);
   EXPECT_NEAR(e.min_depth_completeness_scene, 0.5, 1e-12);
+  EXPECT_NEAR(e.mean_depth_completeness_visible, 0.75, 1e-12);
+  EXPECT_NEAR(e.min_depth_completeness_visible, 0.75, 1e-12);
   EXPECT_NEAR(e.mean_missing, 0.25, 1e-12);
   EXPECT_FALSE(e.has_mesh);
 }

@@ -57,7 +57,7 @@ void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d
     const Eigen::Vector3d ra = (ref.CenterWorld() - center).normalized();
     const Eigen::Vector3d rb = (views[s].CenterWorld() - center).normalized();
     const double angle = std::acos(std::clamp(ra.dot(rb), -1.0, 1.0)) * 180.0 / M_PI;
-    if (angle < options.min_triangulation_angle_deg || angle > 90.0) continue;
+    if (angle < options.min_triangulation_angle_deg || angle > options.max_triangulation_angle_deg) continue;
     candidates.emplace_back(std::abs(angle - kPreferredAngleDeg), s);
   }
   std::sort(candidates.begin(), candidates.end());
@@ -74,7 +74,8 @@ void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d
   plan->depth_max = z * kDepthFactor;
   if (plan->sources.empty()) {
     plan->skip_reason = "no other view sees the scene centre under a triangulation angle between " +
-                        std::to_string(options.min_triangulation_angle_deg) + " and 90 deg";
+                        std::to_string(options.min_triangulation_angle_deg) + " and " +
+                        std::to_string(options.max_triangulation_angle_deg) + " deg";
   }
 }
 
@@ -93,6 +94,7 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
   std::vector<std::map<int, std::vector<double>>> angles(n);
   std::vector<std::vector<double>> ref_depths(n);
   const double min_angle = options.min_triangulation_angle_deg;
+  const double max_angle = options.max_triangulation_angle_deg;
   for (const auto& [id, point] : model.points3d) {
     std::vector<int> track;
     for (const auto& [image_id, unused] : point.track) {
@@ -110,7 +112,7 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
         const Eigen::Vector3d ra = (centers[track[i]] - point.xyz).normalized();
         const Eigen::Vector3d rb = (centers[track[j]] - point.xyz).normalized();
         const double angle = std::acos(std::clamp(ra.dot(rb), -1.0, 1.0)) * 180.0 / M_PI;
-        if (angle < min_angle) continue;
+        if (angle < min_angle || angle > max_angle) continue;
         angles[track[i]][track[j]].push_back(angle);
         angles[track[j]][track[i]].push_back(angle);
       }
@@ -171,8 +173,9 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
     }
     if (plan.sources.empty()) {
       plan.skip_reason = "no source view shares " + std::to_string(options.min_shared_points) +
-                         " sparse points with it at a triangulation angle of at least " +
-                         std::to_string(options.min_triangulation_angle_deg) + " deg";
+                         " sparse points with it at a triangulation angle between " +
+                         std::to_string(options.min_triangulation_angle_deg) + " and " +
+                         std::to_string(options.max_triangulation_angle_deg) + " deg";
     } else if (depths.size() < 3) {
       plan.skip_reason = "too few sparse points in front of it to bound the depth range";
     }

@@ -2,7 +2,12 @@
 // to search, from the sparse SfM model (COLMAP's `__auto__` selection in
 // patch-match.cfg: most shared 3D points seen under a sufficient
 // triangulation angle; depth range from the percentiles of the sparse
-// points' depths, Schönberger et al. 2016 §5).
+// points' depths, Schönberger et al. 2016 §5). Unlike COLMAP, a shared point
+// counts only up to `max_triangulation_angle_deg`: a flat textured ground or
+// facade is matched by SIFT from the opposite side of a ring of photos, so a
+// view across the ring can share more points than a neighbour while it sees
+// nothing of the object's near side (COLMAP then relies on per-pixel view
+// selection among 20 sources; we match against a few).
 //
 // A model without 3D points (cameras given as ground truth) falls back to the
 // poses alone: the point closest to all optical axes is taken as the scene
