@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kMvsStage{
-    "mvs", "Dense geometry: CPU PatchMatch multi-view stereo, COLMAP stereo fusion and Poisson meshing", 3};
+    "mvs", "Dense geometry: CPU PatchMatch multi-view stereo, COLMAP stereo fusion and Poisson meshing", 4};
 
 struct MvsOptions {
   // --- engine and resolution
@@ -20,9 +20,9 @@ struct MvsOptions {
   int max_image_size = 1000;          // Longest side of the depth maps in pixels; 0 keeps the undistorted size.
   // --- source views (per reference image, from the sparse model)
   int max_source_images = 8;                  // Source views per reference image (cost grows linearly).
-  double min_triangulation_angle_deg = 2.0;   // Shared points seen under a smaller angle do not count ...
-  double max_triangulation_angle_deg = 90.0;  // ... nor those seen under a larger one (views from the far side).
-  int min_shared_points = 5;                  // A source view needs at least this many usable shared points.
+  double min_triangulation_angle_deg = 2.0;   // Shared points seen under a smaller angle do not count; the
+                                              // others count (1 + cos angle) / 2 (view_selection.h).
+  int min_shared_points = 5;                  // A source view needs at least this many (weighted) shared points.
   // --- matching cost (bilateral-weighted NCC, Schönberger et al. 2016 §4.1)
   // The window is smaller than COLMAP's (radius 5, σ 5): near silhouettes, depth edges and on curved or
   // slanted surfaces a wide window moves the cost minimum off the true depth (docs/RESULTS.md, "Multi-view
@@ -73,12 +73,9 @@ struct MvsOptions {
     t->Add("min_triangulation_angle_deg", &min_triangulation_angle_deg,
            "Sparse points shared with a candidate source view count only when seen under at least this angle.")
         .Range(0, 60);
-    t->Add("max_triangulation_angle_deg", &max_triangulation_angle_deg,
-           "... and only when seen under at most this angle: views from the far side share points of a flat ground "
-           "or facade but little of the object, and their patches are too foreshortened to match.")
-        .Range(1, 180);
     t->Add("min_shared_points", &min_shared_points,
-           "A source view must share at least this many such sparse points with the reference image.")
+           "A source view must share at least this many such sparse points with the reference image, each "
+           "weighted by (1 + cos of its triangulation angle) / 2 (1 for close views, 0.5 at 90 deg, 0.1 at 143 deg).")
         .Min(1);
     t->Add("window_radius", &window_radius, "Half size of the NCC window in pixels (larger: smoother, slower).")
         .Range(1, 16);
@@ -143,10 +140,6 @@ struct MvsOptions {
         .NotInKey();
   }
   void Check() const {
-    if (!(max_triangulation_angle_deg > min_triangulation_angle_deg)) {
-      RELIGHT_USER_ERROR() << "mvs.max_triangulation_angle_deg (" << max_triangulation_angle_deg
-                           << ") must exceed mvs.min_triangulation_angle_deg (" << min_triangulation_angle_deg << ")";
-    }
     if (window_step > window_radius) {
       RELIGHT_USER_ERROR() << "mvs.window_step (" << window_step << ") is larger than mvs.window_radius ("
                            << window_radius << "): lower the step or raise the radius";

@@ -292,12 +292,13 @@ TEST_F(MvsTest, SourceSelectionPicksNeighboursAndBoundsTheTrueDepths) {
   }
 }
 
-TEST_F(MvsTest, SourceSelectionSkipsViewsFromTheFarSide) {
+TEST_F(MvsTest, SourceSelectionPrefersNeighboursToViewsFromTheFarSide) {
   // A ring of 8 cameras (45° apart) around the origin. The reference (view 0) shares 30 sparse points with its
-  // neighbour (view 1, 45° triangulation angle) and 60 with the camera opposite (view 4, about 180°), as a
-  // ground mosaic matched from both sides of a ring would. Ranked by shared points alone, as COLMAP's
-  // __auto__ selection does, the opposite view wins; counted only up to max_triangulation_angle_deg (90°),
-  // the neighbour does.
+  // neighbour (view 1, 45° triangulation angle), 60 with the camera opposite (view 4, about 180°) and 40 with
+  // view 3 (135°), as a ground mosaic matched from both sides of a ring would. Ranked by shared points alone,
+  // as COLMAP's __auto__ selection does, views 4 and 3 would come first. Weighted by (1 + cos α) / 2 the scores
+  // are 30 · 0.854 = 25.6, 40 · 0.146 = 5.9 and 60 · ~0.001: the neighbour first, view 3 second, and view 4
+  // not at all (below min_shared_points = 5).
   const Camera camera = Camera::Pinhole(1, 96, 72, 90, 90, 48, 36);
   std::vector<Eigen::Vector3d> centers;
   for (int k = 0; k < 8; ++k) centers.emplace_back(4 * std::cos(k * M_PI / 4), 4 * std::sin(k * M_PI / 4), 0);
@@ -308,7 +309,7 @@ TEST_F(MvsTest, SourceSelectionSkipsViewsFromTheFarSide) {
   std::vector<uint32_t> ids;
   for (const auto& [id, image] : model.images) ids.push_back(id);
   std::mt19937 rng(3);
-  std::uniform_real_distribution<double> uniform(-0.3, 0.3);
+  std::uniform_real_distribution<double> uniform(-0.05, 0.05);
   uint64_t next_id = 1;
   const auto add_points = [&](int count, uint32_t a, uint32_t b) {
     for (int k = 0; k < count; ++k) {
@@ -321,23 +322,25 @@ TEST_F(MvsTest, SourceSelectionSkipsViewsFromTheFarSide) {
   };
   add_points(30, ids[0], ids[1]);
   add_points(60, ids[0], ids[4]);
+  add_points(40, ids[0], ids[3]);
   std::vector<StereoView> views;
   for (const auto& [id, image] : model.images) views.push_back(MakeStereoView(model, image, 0));
   MvsOptions options;
-  options.max_source_images = 1;
+  options.max_source_images = 3;
   const std::vector<ViewSelection> plans = SelectViews(model, views, options);
   ASSERT_TRUE(plans[0].skip_reason.empty()) << plans[0].skip_reason;
-  ASSERT_EQ(plans[0].sources.size(), 1u);
+  ASSERT_EQ(plans[0].sources.size(), 2u);
   EXPECT_EQ(views[plans[0].sources[0]].image_id, ids[1]);
+  EXPECT_EQ(views[plans[0].sources[1]].image_id, ids[3]);
   EXPECT_EQ(plans[0].shared_points[0], 30);
-  EXPECT_NEAR(plans[0].median_angle_deg[0], 45.0, 10.0);
-  // View 4 shares points with the reference only, at about 180°: it gets no source at all.
-  EXPECT_FALSE(plans[4].skip_reason.empty());
-  options.max_triangulation_angle_deg = 180;
-  const std::vector<ViewSelection> unbounded = SelectViews(model, views, options);
-  ASSERT_EQ(unbounded[0].sources.size(), 1u);
-  EXPECT_EQ(views[unbounded[0].sources[0]].image_id, ids[4]);
-  EXPECT_EQ(unbounded[0].shared_points[0], 60);
+  EXPECT_EQ(plans[0].shared_points[1], 40);
+  // Points within 0.05 of the centre, cameras 4 away: angles within 1.5° of 45° and 135°.
+  EXPECT_NEAR(plans[0].shared_score[0], 30 * 0.5 * (1 + std::cos(M_PI / 4)), 0.6);
+  EXPECT_NEAR(plans[0].shared_score[1], 40 * 0.5 * (1 - std::cos(M_PI / 4)), 0.8);
+  EXPECT_NEAR(plans[0].median_angle_deg[0], 45.0, 1.5);
+  // View 4 shares points with the reference only, at about 180°: it gets no source at all, and says why.
+  EXPECT_NE(plans[4].skip_reason.find("no source view shares 5 sparse points"), std::string::npos)
+      << plans[4].skip_reason;
 }
 
 TEST_F(MvsTest, StereoFusionFusesOurMapsOntoTheSurface) {

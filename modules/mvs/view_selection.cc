@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <sstream>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -57,7 +58,7 @@ void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d
     const Eigen::Vector3d ra = (ref.CenterWorld() - center).normalized();
     const Eigen::Vector3d rb = (views[s].CenterWorld() - center).normalized();
     const double angle = std::acos(std::clamp(ra.dot(rb), -1.0, 1.0)) * 180.0 / M_PI;
-    if (angle < options.min_triangulation_angle_deg || angle > options.max_triangulation_angle_deg) continue;
+    if (angle < options.min_triangulation_angle_deg || angle > 90.0) continue;
     candidates.emplace_back(std::abs(angle - kPreferredAngleDeg), s);
   }
   std::sort(candidates.begin(), candidates.end());
@@ -65,6 +66,7 @@ void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d
   for (const auto& [score, s] : candidates) {
     plan->sources.push_back(s);
     plan->shared_points.push_back(0);
+    plan->shared_score.push_back(0.0);
     const Eigen::Vector3d ra = (ref.CenterWorld() - center).normalized();
     const Eigen::Vector3d rb = (views[s].CenterWorld() - center).normalized();
     plan->median_angle_deg.push_back(std::acos(std::clamp(ra.dot(rb), -1.0, 1.0)) * 180.0 / M_PI);
@@ -73,9 +75,10 @@ void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d
   plan->depth_min = z / kDepthFactor;
   plan->depth_max = z * kDepthFactor;
   if (plan->sources.empty()) {
-    plan->skip_reason = "no other view sees the scene centre under a triangulation angle between " +
-                        std::to_string(options.min_triangulation_angle_deg) + " and " +
-                        std::to_string(options.max_triangulation_angle_deg) + " deg";
+    std::ostringstream reason;
+    reason << "no other view sees the scene centre under a triangulation angle between "
+           << options.min_triangulation_angle_deg << " and 90 deg";
+    plan->skip_reason = reason.str();
   }
 }
 
@@ -90,11 +93,11 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
     index_of[views[i].image_id] = i;
     centers[i] = views[i].CenterWorld();
   }
-  // Triangulation angles of the shared points of every image pair.
+  // Triangulation angles of the shared points of every image pair, and their weighted count.
   std::vector<std::map<int, std::vector<double>>> angles(n);
+  std::vector<std::map<int, double>> scores(n);
   std::vector<std::vector<double>> ref_depths(n);
   const double min_angle = options.min_triangulation_angle_deg;
-  const double max_angle = options.max_triangulation_angle_deg;
   for (const auto& [id, point] : model.points3d) {
     std::vector<int> track;
     for (const auto& [image_id, unused] : point.track) {
@@ -112,9 +115,12 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
         const Eigen::Vector3d ra = (centers[track[i]] - point.xyz).normalized();
         const Eigen::Vector3d rb = (centers[track[j]] - point.xyz).normalized();
         const double angle = std::acos(std::clamp(ra.dot(rb), -1.0, 1.0)) * 180.0 / M_PI;
-        if (angle < min_angle || angle > max_angle) continue;
+        if (angle < min_angle) continue;
         angles[track[i]][track[j]].push_back(angle);
         angles[track[j]][track[i]].push_back(angle);
+        const double weight = 0.5 * (1.0 + ra.dot(rb));  // (1 + cos angle) / 2
+        scores[track[i]][track[j]] += weight;
+        scores[track[j]][track[i]] += weight;
       }
     }
   }
@@ -137,20 +143,19 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
   for (int r = 0; r < n; ++r) {
     ViewSelection& plan = plans[r];
     plan.ref = r;
-    // Rank candidates by their usable shared points.
-    std::vector<std::pair<int, int>> candidates;  // (count, source)
-    for (const auto& [s, list] : angles[r]) {
-      if (static_cast<int>(list.size()) >= options.min_shared_points) {
-        candidates.emplace_back(static_cast<int>(list.size()), s);
-      }
+    // Rank candidates by their weighted shared points.
+    std::vector<std::pair<double, int>> candidates;  // (score, source)
+    for (const auto& [s, score] : scores[r]) {
+      if (score >= options.min_shared_points) candidates.emplace_back(score, s);
     }
     std::sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
       return a.first != b.first ? a.first > b.first : a.second < b.second;
     });
     if (static_cast<int>(candidates.size()) > options.max_source_images) candidates.resize(options.max_source_images);
-    for (const auto& [count, s] : candidates) {
+    for (const auto& [score, s] : candidates) {
       plan.sources.push_back(s);
-      plan.shared_points.push_back(count);
+      plan.shared_points.push_back(static_cast<int>(angles[r][s].size()));
+      plan.shared_score.push_back(score);
       plan.median_angle_deg.push_back(Percentile(angles[r][s], 0.5));
     }
     // Depth range: the sparse points this image observes (all points in front and inside as a fallback).
@@ -172,10 +177,11 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
       plan.depth_min = std::max(plan.depth_min, 1e-3 * plan.depth_max);
     }
     if (plan.sources.empty()) {
-      plan.skip_reason = "no source view shares " + std::to_string(options.min_shared_points) +
-                         " sparse points with it at a triangulation angle between " +
-                         std::to_string(options.min_triangulation_angle_deg) + " and " +
-                         std::to_string(options.max_triangulation_angle_deg) + " deg";
+      std::ostringstream reason;
+      reason << "no source view shares " << options.min_shared_points << " sparse points with it (weighted by "
+             << "(1 + cos angle) / 2) at a triangulation angle of at least " << options.min_triangulation_angle_deg
+             << " deg";
+      plan.skip_reason = reason.str();
     } else if (depths.size() < 3) {
       plan.skip_reason = "too few sparse points in front of it to bound the depth range";
     }

@@ -2,12 +2,15 @@
 // to search, from the sparse SfM model (COLMAP's `__auto__` selection in
 // patch-match.cfg: most shared 3D points seen under a sufficient
 // triangulation angle; depth range from the percentiles of the sparse
-// points' depths, Schönberger et al. 2016 §5). Unlike COLMAP, a shared point
-// counts only up to `max_triangulation_angle_deg`: a flat textured ground or
-// facade is matched by SIFT from the opposite side of a ring of photos, so a
-// view across the ring can share more points than a neighbour while it sees
-// nothing of the object's near side (COLMAP then relies on per-pixel view
-// selection among 20 sources; we match against a few).
+// points' depths, Schönberger et al. 2016 §5). Unlike COLMAP, each shared
+// point counts (1 + cos α) / 2 for its triangulation angle α: 1 for close
+// views, 1/2 at 90°, 0.1 at 143°. A flat textured ground or facade is matched
+// by SIFT from the opposite side of a ring of photos, so a view across the
+// ring can share more points than a neighbour while it sees nothing of the
+// object's near side (COLMAP then relies on per-pixel view selection among 20
+// sources; we match against a few). A hard angle limit would not do: on a
+// convex object the views beyond 90° are the ones that see the reference's
+// silhouette regions, and they should still fill the remaining slots.
 //
 // A model without 3D points (cameras given as ground truth) falls back to the
 // poses alone: the point closest to all optical axes is taken as the scene
@@ -30,6 +33,7 @@ struct ViewSelection {
   int ref = -1;                       // index into the views
   std::vector<int> sources;           // indices into the views, best first
   std::vector<int> shared_points;     // usable shared sparse points per source
+  std::vector<double> shared_score;   // their weighted count, (1 + cos angle) / 2 each (the ranking)
   std::vector<double> median_angle_deg;  // median triangulation angle of those points per source
   double depth_min = 0;               // search range of camera z (0 when unknown)
   double depth_max = 0;
