@@ -175,6 +175,7 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
     lighting.UpdateCoefficients();
   }
   const bool solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
+  bool refit_initialisation = solve_reflectance && o.init == "vertex_fits" && !(known != nullptr && known->has_reflectance);
   // Robust reweighting of the reflectance step (nothing to reweight when the reflectance is fixed).
   const bool use_robust = solve_reflectance && o.robust_reflectance && o.robust_loss != "none";
   const TransportStore& transport = ctx.transport;
@@ -208,6 +209,15 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
     }
     step.Restart();
     std::vector<float> responses = ComputeLobeResponses(transport, obs, train, lighting);
+    if (refit_initialisation) {
+      // inverse.init = vertex_fits: the materials start from per-vertex fits under this first lighting.
+      reflectance = InitializeReflectanceFromFits(obs, train, responses, nv, basis, spec.materials, o.seed);
+      reflectance.lobe_enabled = spec.lobe_enabled;
+      for (int m = 0; m < reflectance.num_materials; ++m)
+        for (int b = 0; b < reflectance.num_lobes(); ++b)
+          if (!reflectance.enabled(b)) reflectance.coefficients[m * reflectance.num_lobes() + b].setZero();
+      refit_initialisation = false;
+    }
     // Robust weights of the current model's residuals (this lighting, the previous reflectance),
     // held fixed through this iteration: the reflectance step, the extrapolation test and the
     // objective (the IRLS surrogate Σ α r (y − ŷ)²) all use them.
@@ -362,10 +372,12 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
 
   ModelSpec spec;
   spec.lobe_enabled.assign(basis.size(), 1);
-  spec.materials = o.materials;
+  // A known reflectance (fixed or the starting point) brings its own materials.
+  spec.materials = known != nullptr && known->has_reflectance ? known->reflectance.num_materials : o.materials;
   spec.max_iterations = o.max_iterations;
   spec.coarse_iterations = o.coarse_iterations;
-  const bool can_select = o.select_model && !o.fixed_lighting && !o.fixed_reflectance && !ctx.holdout.empty();
+  const bool can_select = o.select_model && !o.fixed_lighting && !o.fixed_reflectance && !o.start_from_truth &&
+                          !ctx.holdout.empty();
   if (o.select_model && !can_select) {
     RLOG_WARN("inverse.select_model needs held-out observations and nothing fixed; solving the configured model");
   }
@@ -464,7 +476,7 @@ KnownQuantities LoadKnown(const InverseOptions& o, const std::string& ingest_dir
   KnownQuantities known;
   const std::string gt = JoinPath(ingest_dir, "ground_truth");
   if (!fs::is_directory(gt)) {
-    RELIGHT_USER_ERROR() << "inverse.fixed_lighting / fixed_reflectance need ground truth, but '" << gt
+    RELIGHT_USER_ERROR() << "inverse.fixed_lighting / fixed_reflectance / start_from_truth need ground truth, but '" << gt
                          << "' does not exist (only synthetic scenes and imported data sets have it)";
   }
   if (o.fixed_lighting) {
@@ -488,7 +500,7 @@ KnownQuantities LoadKnown(const InverseOptions& o, const std::string& ingest_dir
     }
     known.has_lighting = true;
   }
-  if (o.fixed_reflectance) {
+  if (o.fixed_reflectance || o.start_from_truth) {
     const ReflectanceModel model = ReadReflectanceModel(JoinPath(gt, "materials.json"));
     ReflectanceState& r = known.reflectance;
     r.basis = model.basis;
@@ -499,7 +511,7 @@ KnownQuantities LoadKnown(const InverseOptions& o, const std::string& ingest_dir
     for (int m = 0; m < r.num_materials; ++m) {
       const std::vector<float>* w = problem.mesh.FindProperty("w" + std::to_string(m));
       if (w == nullptr) {
-        RELIGHT_USER_ERROR() << "inverse.fixed_reflectance needs the ground-truth mesh with material weights "
+        RELIGHT_USER_ERROR() << "inverse.fixed_reflectance / start_from_truth need the ground-truth mesh with material weights "
                              << "(property w" << m << "); set mesh.source: ground_truth";
       }
       for (size_t v = 0; v < w->size(); ++v) r.weights[v * r.num_materials + m] = (*w)[v];
@@ -527,7 +539,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
                          << problem.observations.num_vertices << ") disagree; rerun from the mesh stage";
   }
   KnownQuantities known;
-  if (o.fixed_lighting || o.fixed_reflectance) known = LoadKnown(o, ingest_dir, problem);
+  if (o.fixed_lighting || o.fixed_reflectance || o.start_from_truth) known = LoadKnown(o, ingest_dir, problem);
   const InverseResult result = SolveInverse(problem, o, &known);
 
   // Outputs.

@@ -26,6 +26,7 @@ struct InverseOptions {
   // Reflectance model.
   std::vector<std::string> basis = {"lambertian", "ggx:0.1", "ggx:0.3", "phong:50", "phong:500"};
   int materials = 3;                    // materials (k-means regions at initialisation)
+  std::string init = "colour";          // colour (k-means on mean colours, the paper) or vertex_fits
   double sparsity = 1e-3;               // penalty on the sum of per-vertex weights (favours few materials)
   double weight_smoothness = 0.05;      // pull of a vertex's weights towards its neighbours'
 
@@ -57,6 +58,7 @@ struct InverseOptions {
   // Known quantities, for experiments and tests on synthetic scenes.
   bool fixed_lighting = false;          // use the ground-truth environment maps; solve reflectance only
   bool fixed_reflectance = false;       // use the ground-truth reflectance; solve lighting only
+  bool start_from_truth = false;        // start the reflectance from the ground truth instead of k-means
 
   void Declare(OptionTable* t) {
     t->Add("lighting_basis", &lighting_basis,
@@ -79,6 +81,12 @@ struct InverseOptions {
            "Basis BRDFs: lambertian, ggx:ALPHA[:F0], cook_torrance:ALPHA[:F0], phong:EXPONENT. "
            "The first Lambertian lobe carries the albedo.");
     t->Add("materials", &materials, "Number of materials (k-means regions at initialisation).").Range(1, 32);
+    t->Add("init", &init,
+           "How materials start: colour (k-means on hue and saturation of the vertices' mean colours, each region's "
+           "median colour as its diffuse colour; the paper) or vertex_fits (once the first lighting is known, k-means "
+           "on per-vertex reflectance fits: diffuse colour direction and each glossy lobe's share, so materials of one "
+           "hue that differ in gloss separate; docs/RESULTS.md).")
+        .Choices({"colour", "vertex_fits"});
     t->Add("sparsity", &sparsity,
            "Penalty on the sum of a vertex's material weights, relative to its data term (favours few materials).")
         .Range(0, 1);
@@ -145,6 +153,10 @@ struct InverseOptions {
            "Use the ground-truth reflectance and solve only the lighting (synthetic scenes with ground-truth mesh). "
            "With fixed_lighting too, nothing is solved: the stage writes the truth at the solver's resolution, "
            "and the scores downstream are the ceiling the model and the evaluation allow.");
+    t->Add("start_from_truth", &start_from_truth,
+           "Start the reflectance (the true basis, materials and weights) from the ground truth instead of the "
+           "k-means initialisation, then solve as usual (synthetic scenes with ground-truth mesh). Measures how much "
+           "of the error is the optimisation's starting point rather than the data.");
   }
   void Check() const {
     if (env_resolution & (env_resolution - 1)) {

@@ -154,6 +154,149 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
   return state;
 }
 
+ReflectanceState InitializeReflectanceFromFits(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                                               const std::vector<float>& responses, size_t num_vertices,
+                                               const std::vector<BrdfLobe>& basis, int num_materials, int seed) {
+  const int lambert = FirstLambertian(basis);
+  const int b_count = static_cast<int>(basis.size());
+  if (lambert < 0 || b_count < 2) {
+    return InitializeReflectance(observations, train, num_vertices, basis, num_materials, seed);
+  }
+  RELIGHT_CHECK(responses.size() == train.size() * b_count * 3) << "one response per training observation and lobe";
+  std::vector<uint32_t> first, items;
+  GroupByVertex(observations, train, num_vertices, &first, &items);
+  // Mean response per lobe and channel: a lobe's typical radiance per unit coefficient.
+  std::vector<double> mean_response(b_count * 3, 0.0);
+  double confidence_sum = 0;
+  for (size_t k = 0; k < train.size(); ++k) {
+    const double a = observations.records[train[k]].confidence;
+    for (int j = 0; j < b_count * 3; ++j) mean_response[j] += a * responses[k * b_count * 3 + j];
+    confidence_sum += a;
+  }
+  for (double& r : mean_response) r /= std::max(1e-30, confidence_sum);
+
+  // Per-vertex free fits ρ_{v,b,c} ≥ 0 (ridge 1e-3 of the largest diagonal value keeps them finite).
+  std::vector<Eigen::VectorXd> fit(num_vertices);
+  std::vector<double> vertex_confidence(num_vertices, 0.0);
+  tbb::parallel_for(size_t(0), num_vertices, [&](size_t v) {
+    if (first[v] == first[v + 1]) return;
+    Eigen::VectorXd rho = Eigen::VectorXd::Zero(b_count * 3);
+    Eigen::VectorXd u(b_count);
+    for (int c = 0; c < 3; ++c) {
+      Eigen::MatrixXd g = Eigen::MatrixXd::Zero(b_count, b_count);
+      Eigen::VectorXd h = Eigen::VectorXd::Zero(b_count);
+      for (uint32_t q = first[v]; q < first[v + 1]; ++q) {
+        const uint32_t k = items[q];
+        const Observation& ob = observations.records[train[k]];
+        for (int b = 0; b < b_count; ++b) u[b] = responses[size_t(k) * b_count * 3 + b * 3 + c];
+        g.noalias() += double(ob.confidence) * u * u.transpose();
+        h += double(ob.confidence) * ob.rgb[c] * u;
+      }
+      g.diagonal().array() += 1e-3 * std::max(1e-30, g.diagonal().maxCoeff());
+      Eigen::VectorXd x = Eigen::VectorXd::Zero(b_count);
+      SolveNonNegativeQp(g, h, &x);
+      for (int b = 0; b < b_count; ++b) rho[b * 3 + c] = x[b];
+    }
+    double conf = 0;
+    for (uint32_t q = first[v]; q < first[v + 1]; ++q) conf += observations.records[train[items[q]]].confidence;
+    fit[v] = std::move(rho);
+    vertex_confidence[v] = conf;
+  });
+
+  // Features: unit diffuse RGB, then each other lobe's share s / (1 + s) of the appearance.
+  const int dim = 3 + (b_count - 1);
+  auto feature = [&](size_t v, float* f) {
+    const Eigen::VectorXd& rho = fit[v];
+    Eigen::Vector3d d(rho[lambert * 3], rho[lambert * 3 + 1], rho[lambert * 3 + 2]);
+    const double norm = d.norm();
+    double diffuse_radiance = 0;
+    for (int c = 0; c < 3; ++c) diffuse_radiance += d[c] * mean_response[lambert * 3 + c];
+    for (int c = 0; c < 3; ++c) f[c] = static_cast<float>(norm > 0 ? d[c] / norm : 0.0);
+    int slot = 3;
+    for (int b = 0; b < b_count; ++b) {
+      if (b == lambert) continue;
+      double lobe_radiance = 0;
+      for (int c = 0; c < 3; ++c) lobe_radiance += rho[b * 3 + c] * mean_response[b * 3 + c];
+      const double share = lobe_radiance / std::max(1e-12, diffuse_radiance);
+      f[slot++] = static_cast<float>(share / (1 + share));
+    }
+  };
+  std::vector<double> confidences;
+  for (size_t v = 0; v < num_vertices; ++v)
+    if (fit[v].size() > 0 && fit[v].norm() > 0) confidences.push_back(vertex_confidence[v]);
+  if (confidences.size() < static_cast<size_t>(std::max(2, num_materials))) {
+    return InitializeReflectance(observations, train, num_vertices, basis, num_materials, seed);
+  }
+  std::nth_element(confidences.begin(), confidences.begin() + confidences.size() / 4, confidences.end());
+  const double min_confidence = confidences[confidences.size() / 4];
+  std::vector<uint32_t> members;
+  for (size_t v = 0; v < num_vertices; ++v)
+    if (fit[v].size() > 0 && fit[v].norm() > 0 && vertex_confidence[v] >= min_confidence)
+      members.push_back(static_cast<uint32_t>(v));
+  const int k = std::max(1, std::min<int>(num_materials, static_cast<int>(members.size())));
+  cv::Mat features(static_cast<int>(members.size()), dim, CV_32F);
+  for (size_t q = 0; q < members.size(); ++q) feature(members[q], features.ptr<float>(static_cast<int>(q)));
+  cv::Mat labels, centers;
+  if (k > 1) {
+    cv::theRNG().state = static_cast<uint64_t>(seed) * 2654435761ULL + 1;
+    cv::kmeans(features, k, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-5), 8,
+               cv::KMEANS_PP_CENTERS, centers);
+  } else {
+    labels = cv::Mat::zeros(features.rows, 1, CV_32S);
+    cv::reduce(features, centers, 0, cv::REDUCE_AVG);
+  }
+
+  ReflectanceState state;
+  state.basis = basis;
+  state.num_materials = k;
+  state.coefficients.assign(size_t(k) * b_count, Eigen::Vector3d::Zero());
+  for (int m = 0; m < k; ++m) {
+    std::vector<std::vector<double>> component(b_count * 3);
+    for (size_t q = 0; q < members.size(); ++q) {
+      if (labels.at<int>(static_cast<int>(q)) != m) continue;
+      for (int j = 0; j < b_count * 3; ++j) component[j].push_back(fit[members[q]][j]);
+    }
+    for (int j = 0; j < b_count * 3; ++j) {
+      std::vector<double>& x = component[j];
+      double median = j / 3 == lambert ? 0.5 : 0.0;  // an empty group starts as a grey diffuse material
+      if (!x.empty()) {
+        std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+        median = x[x.size() / 2];
+      }
+      state.coefficients[m * b_count + j / 3][j % 3] = median;
+    }
+    state.coefficients[m * b_count + lambert] = state.coefficients[m * b_count + lambert].cwiseMax(1e-6);
+  }
+  // Every vertex on its nearest material (feature distance), scaled to its fit in radiance terms.
+  state.weights.assign(num_vertices * k, 1.0f / k);
+  std::vector<float> f(dim);
+  for (size_t v = 0; v < num_vertices; ++v) {
+    if (fit[v].size() == 0) continue;
+    int best = 0;
+    if (fit[v].norm() > 0) {
+      feature(v, f.data());
+      double best_d2 = 1e300;
+      for (int m = 0; m < k; ++m) {
+        double d2 = 0;
+        for (int j = 0; j < dim; ++j) d2 += (f[j] - centers.at<float>(m, j)) * (f[j] - centers.at<float>(m, j));
+        if (d2 < best_d2) {
+          best_d2 = d2;
+          best = m;
+        }
+      }
+    }
+    double dot = 0, norm2 = 0;
+    for (int j = 0; j < b_count * 3; ++j) {
+      const double material = state.coefficients[best * b_count + j / 3][j % 3] * mean_response[j];
+      dot += fit[v][j] * mean_response[j] * material;
+      norm2 += material * material;
+    }
+    for (int m = 0; m < k; ++m) state.weights[v * k + m] = 0.0f;
+    state.weights[v * k + best] = static_cast<float>(std::max(0.0, dot / std::max(1e-30, norm2)));
+  }
+  return state;
+}
+
 std::vector<float> ReflectanceRobustWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
                                             const std::vector<float>& responses, const ReflectanceState& state,
                                             const std::string& loss, double scale) {

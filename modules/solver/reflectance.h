@@ -31,6 +31,22 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
                                        size_t num_vertices, const std::vector<BrdfLobe>& basis, int num_materials,
                                        int seed);
 
+// Initialisation from per-vertex fits (not in the paper): with the lighting
+// known or estimated, every vertex's reflectance is fitted on its own (a small
+// non-negative least-squares problem per channel over all lobes, `responses`
+// as from ComputeLobeResponses over `train`), and k-means groups the
+// well-observed vertices (total confidence at least the lower quartile) by
+// what a material is: the direction of the diffuse RGB and each other lobe's
+// share of the appearance, s_b / (1 + s_b) with s_b the lobe's radiance over
+// the diffuse radiance. Each group's median fit is its material; every vertex
+// starts on its nearest material with the least-squares scale. Unlike k-means
+// on mean colours it tells apart materials of one hue that differ in gloss
+// (a dark polished metal beside a matte paint). Needs a Lambertian lobe; falls
+// back to InitializeReflectance without one.
+ReflectanceState InitializeReflectanceFromFits(const ObservationSet& observations, const std::vector<uint32_t>& train,
+                                               const std::vector<float>& responses, size_t num_vertices,
+                                               const std::vector<BrdfLobe>& basis, int num_materials, int seed);
+
 // Robust IRLS weights r_k of the observations train[k] under the current model
 // (`responses` as from ComputeLobeResponses over `train`): RobustWeights of the
 // RGB residual magnitudes |y − ŷ|, with the robust sigma (1.4826 × MAD) of each

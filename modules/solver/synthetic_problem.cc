@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "core/error.h"
 #include "geometry/primitives.h"
 #include "geometry/raycaster.h"
 #include "solver/lobe_spec.h"
@@ -103,6 +104,15 @@ SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
     }
   }
   if (o.materials == 2) r.coefficients[b_count] = Eigen::Vector3d::Constant(0.45);
+  if (!o.coefficients.empty()) {
+    RELIGHT_CHECK(static_cast<int>(o.coefficients.size()) == o.materials) << "one coefficient list per material";
+    for (int m = 0; m < o.materials; ++m) {
+      RELIGHT_CHECK(static_cast<int>(o.coefficients[m].size()) == 3 * b_count) << "RGB per lobe";
+      for (int b = 0; b < b_count; ++b)
+        r.coefficients[m * b_count + b] =
+            Eigen::Vector3d(o.coefficients[m][3 * b], o.coefficients[m][3 * b + 1], o.coefficients[m][3 * b + 2]);
+    }
+  }
   r.weights.assign(nv * o.materials, 0.0f);
   for (size_t v = 0; v < nv; ++v) {
     const Eigen::Vector3f p = mesh.vertices[v];

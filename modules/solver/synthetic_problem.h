@@ -24,6 +24,9 @@ struct SyntheticProblemOptions {
   double displacement = 0.0;           // relative bump height (self-shadowing)
   bool glossy = true;                  // materials after the first carry a specular lobe
   double blend_width = 0.5;            // two materials: width (scene units) of the transition between them
+  // Optional materials instead of the generated ones: per material, RGB of every basis lobe
+  // (3 × basis.size() values, lobe-major).
+  std::vector<std::vector<double>> coefficients;
   double min_view_cos = 0.1;           // a vertex is observed when n·view exceeds this
   double generation_keep_energy = 1.0; // Haar truncation of the rows that generate the measurements
   int seed = 1;
