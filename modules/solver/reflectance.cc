@@ -62,6 +62,18 @@ void GroupByVertex(const ObservationSet& observations, const std::vector<uint32_
   for (size_t k = 0; k < train.size(); ++k) (*items)[cursor[observations.records[train[k]].vertex]++] = k;
 }
 
+// k-means++ with `attempts` restarts, reproducible from `seed`; one cluster: the mean.
+void SeededKMeans(const cv::Mat& features, int k, int attempts, int seed, cv::Mat* labels, cv::Mat* centers) {
+  if (k > 1) {
+    cv::theRNG().state = static_cast<uint64_t>(seed) * 2654435761ULL + 1;
+    cv::kmeans(features, k, *labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-5),
+               attempts, cv::KMEANS_PP_CENTERS, *centers);
+  } else {
+    *labels = cv::Mat::zeros(features.rows, 1, CV_32S);
+    cv::reduce(features, *centers, 0, cv::REDUCE_AVG);
+  }
+}
+
 }  // namespace
 
 ReflectanceState InitializeReflectance(const ObservationSet& observations, const std::vector<uint32_t>& train,
@@ -97,14 +109,7 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
     features.at<float>(static_cast<int>(q), 2) = static_cast<float>(sat);
   }
   cv::Mat labels, centers;
-  if (observed.size() >= static_cast<size_t>(k) && k > 1) {
-    cv::theRNG().state = static_cast<uint64_t>(seed) * 2654435761ULL + 1;
-    cv::kmeans(features, k, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-5), 4,
-               cv::KMEANS_PP_CENTERS, centers);
-  } else {
-    labels = cv::Mat::zeros(features.rows, 1, CV_32S);
-    cv::reduce(features, centers, 0, cv::REDUCE_AVG);
-  }
+  SeededKMeans(features, observed.size() >= static_cast<size_t>(k) ? k : 1, 4, seed, &labels, &centers);
   // Each region's median colour is its material's diffuse colour.
   const int lambert = FirstLambertian(basis);
   state.coefficients.assign(size_t(k) * b_count, Eigen::Vector3d::Zero());
@@ -237,14 +242,7 @@ ReflectanceState InitializeReflectanceFromFits(const ObservationSet& observation
   cv::Mat features(static_cast<int>(members.size()), dim, CV_32F);
   for (size_t q = 0; q < members.size(); ++q) feature(members[q], features.ptr<float>(static_cast<int>(q)));
   cv::Mat labels, centers;
-  if (k > 1) {
-    cv::theRNG().state = static_cast<uint64_t>(seed) * 2654435761ULL + 1;
-    cv::kmeans(features, k, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-5), 8,
-               cv::KMEANS_PP_CENTERS, centers);
-  } else {
-    labels = cv::Mat::zeros(features.rows, 1, CV_32S);
-    cv::reduce(features, centers, 0, cv::REDUCE_AVG);
-  }
+  SeededKMeans(features, k, 8, seed, &labels, &centers);
 
   ReflectanceState state;
   state.basis = basis;
