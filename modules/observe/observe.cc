@@ -147,7 +147,7 @@ double Ramp(double x, double zero_at, double one_at) {
 
 std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vector<float>& footprint_radius,
                                       const RayCaster& caster, const PhotoView& photo, uint32_t photo_index,
-                                      const ObserveOptions& o) {
+                                      const ObserveOptions& o, size_t* clipped_footprints) {
   RELIGHT_CHECK(mesh.normals.size() == mesh.vertices.size()) << "observe needs vertex normals";
   RELIGHT_CHECK(photo.radiance->width == photo.camera.width && photo.radiance->height == photo.camera.height);
   const Image depth = RenderDepthMap(caster, photo.camera, photo.pose);
@@ -161,6 +161,7 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
 
   std::vector<Observation> slots(mesh.num_vertices());
   std::vector<uint8_t> valid(mesh.num_vertices(), 0);
+  std::atomic<size_t> clipped{0};
   tbb::parallel_for(size_t(0), mesh.num_vertices(), [&](size_t v) {
     // A vertex in no face (scanned meshes such as the Stanford bunny have a few)
     // is no surface point: no area, no meaningful normal. It is never observed.
@@ -193,6 +194,11 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
     const double angle_deg = std::acos(std::min(1.0, cos_view)) * 180.0 / M_PI;
     const double confidence = pixel_confidence * Ramp(angle_deg, o.grazing_min_deg, o.grazing_full_deg) * edge_factor;
     if (confidence < o.min_confidence || confidence <= 0) return;
+    // Clipped pixels are the footprint's brightest (or darkest): the mean of the rest is biased, not noisier.
+    if (1.0 - pixel_confidence > o.max_distrusted_share) {
+      clipped.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
     obs.photo = photo_index;
     obs.vertex = static_cast<uint32_t>(v);
     obs.confidence = static_cast<float>(confidence);
@@ -204,6 +210,7 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
   std::vector<Observation> out;
   for (size_t v = 0; v < slots.size(); ++v)
     if (valid[v]) out.push_back(slots[v]);
+  if (clipped_footprints != nullptr) *clipped_footprints = clipped.load();
   return out;
 }
 
@@ -243,6 +250,7 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
 
   std::vector<ObservedPhoto> photos(images.size());
   std::vector<std::vector<Observation>> per_photo(images.size());
+  std::vector<int64_t> clipped_per_photo(images.size(), -1);  // -1: observed by an earlier, killed run
   Progress progress("observe photos", summary.photos);
   for (size_t i = 0; i < images.size(); ++i) {
     const ImageRecord& im = *images[i];
@@ -272,7 +280,10 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
     } else {
       const Image confidence = ReadImage(JoinPath(linearize_dir, "confidence/" + stem + ".exr"));
       PhotoView view{p.camera, im, &radiance, &confidence};
-      per_photo[i] = ObservePhoto(mesh, footprint, caster, view, p.index, options);
+      size_t clipped = 0;
+      per_photo[i] = ObservePhoto(mesh, footprint, caster, view, p.index, options, &clipped);
+      clipped_per_photo[i] = static_cast<int64_t>(clipped);
+      summary.clipped_footprints += clipped;
       ObservationSet one{static_cast<uint32_t>(images.size()), static_cast<uint32_t>(mesh.num_vertices()), per_photo[i]};
       WriteObservations(cache, one);
     }
@@ -304,25 +315,31 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
   coverage["vertices"] = mesh.num_vertices();
   coverage["observations"] = summary.observations;
   coverage["unobserved_vertices"] = summary.unobserved_vertices;
+  coverage["dropped_clipped_footprints"] = summary.clipped_footprints;
   std::map<int, int> histogram;
   for (int c : per_vertex) ++histogram[std::min(c, 20)];
   Json hist = Json::object();
   for (const auto& [k, v] : histogram) hist[k == 20 ? "20+" : std::to_string(k)] = v;
   coverage["photos_per_vertex_histogram"] = hist;
   Json per = Json::array();
-  for (const auto& p : photos) {
-    per.push_back({{"name", p.name},
-                   {"observed_vertices", p.observed_vertices},
-                   {"observed_fraction", double(p.observed_vertices) / std::max<size_t>(1, mesh.num_vertices())},
-                   {"mean_confidence", p.mean_confidence}});
+  for (size_t i = 0; i < photos.size(); ++i) {
+    const ObservedPhoto& p = photos[i];
+    Json entry = {{"name", p.name},
+                  {"observed_vertices", p.observed_vertices},
+                  {"observed_fraction", double(p.observed_vertices) / std::max<size_t>(1, mesh.num_vertices())},
+                  {"mean_confidence", p.mean_confidence}};
+    if (clipped_per_photo[i] >= 0) entry["dropped_clipped_footprints"] = clipped_per_photo[i];
+    per.push_back(entry);
   }
   coverage["photos"] = per;
   summary.seconds = timer.Seconds();
   coverage["reused_photos"] = summary.reused_photos;
   coverage["seconds"] = summary.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "coverage.json"), coverage);
-  RLOG_INFO("{} observations of {} vertices in {} photos ({} vertices unobserved) in {:.1f} s", summary.observations,
-            mesh.num_vertices(), summary.photos, summary.unobserved_vertices, summary.seconds);
+  RLOG_INFO("{} observations of {} vertices in {} photos ({} vertices unobserved; {} footprints with clipped pixels "
+            "dropped) in {:.1f} s",
+            summary.observations, mesh.num_vertices(), summary.photos, summary.unobserved_vertices,
+            summary.clipped_footprints, summary.seconds);
   if (summary.unobserved_vertices > mesh.num_vertices() / 2) {
     RLOG_WARN("more than half of the vertices are seen in no photo; is the mesh in the SfM frame?");
   }

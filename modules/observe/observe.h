@@ -4,7 +4,9 @@
 // the camera and agrees with the depth map. Its colour is the confidence-
 // weighted mean of the linear photo over a footprint matching the vertex's
 // projected share of the surface (an image pyramid keeps that O(1) per vertex).
-// Its confidence multiplies: the unclipped fraction of the footprint (linearize),
+// A footprint holding distrusted pixels (linearize: clipped) is dropped, since
+// the mean of the rest would be biased low on highlights (high in crushed
+// shadows). Its confidence multiplies: the trusted fraction of the footprint,
 // a ramp on the view angle (low at grazing angles) and a ramp on the distance
 // to silhouettes and depth discontinuities.
 #pragma once
@@ -41,16 +43,19 @@ struct PhotoView {
   const Image* confidence = nullptr;  // 1 channel
 };
 
-// Observations of the mesh's vertices (normals required) in one photo.
+// Observations of the mesh's vertices (normals required) in one photo;
+// `clipped_footprints`, when given, receives how many otherwise valid
+// observations were dropped for distrusted pixels (options.max_distrusted_share).
 std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vector<float>& footprint_radius,
                                       const RayCaster& caster, const PhotoView& photo, uint32_t photo_index,
-                                      const ObserveOptions& options);
+                                      const ObserveOptions& options, size_t* clipped_footprints = nullptr);
 
 struct ObserveSummary {
   int photos = 0;
   int reused_photos = 0;           // finished by an earlier, killed run
   size_t observations = 0;
   size_t unobserved_vertices = 0;  // vertices seen in no photo
+  size_t clipped_footprints = 0;   // observations dropped for clipped pixels (photos observed in this run)
   double seconds = 0;
 };
 

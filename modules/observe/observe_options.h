@@ -9,7 +9,7 @@
 namespace relight {
 
 inline const StageInfo kObserveStage{
-    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 2};
+    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 3};
 
 struct ObserveOptions {
   double grazing_min_deg = 80.0;      // View angles beyond this (from the normal) get confidence 0.
@@ -20,6 +20,7 @@ struct ObserveOptions {
   double min_confidence = 0.05;       // Observations below this confidence are dropped.
   double footprint_scale = 1.0;       // Sampling footprint radius relative to the vertex's projected radius.
   double border_margin_px = 2.0;      // Projections closer than this to the image border are dropped.
+  double max_distrusted_share = 0.001;  // Footprints with more distrusted (clipped) pixels than this are dropped.
 
   void Declare(OptionTable* t) {
     t->Add("grazing_min_deg", &grazing_min_deg,
@@ -43,6 +44,13 @@ struct ObserveOptions {
         .Range(0.25, 4);
     t->Add("border_margin_px", &border_margin_px, "Projections closer than this to the image border are dropped.")
         .Range(0, 100);
+    t->Add("max_distrusted_share", &max_distrusted_share,
+           "An observation whose footprint holds a larger share of distrusted pixels (linearize: over-exposed, "
+           "black-clipped or next to a clipped pixel) is dropped. The mean of the remaining pixels would be biased: "
+           "the distrusted ones are the brightest (highlights) or the darkest, not a random share. 0.001 only "
+           "tolerates rounding; 1 keeps such observations with their confidence lowered by the share "
+           "(observe stage version 2).")
+        .Range(0, 1);
   }
   void Check() const {
     if (grazing_full_deg >= grazing_min_deg) {

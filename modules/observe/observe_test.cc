@@ -258,6 +258,48 @@ TEST_F(ObserveTest, ClippedPixelsAndGrazingAnglesLowerConfidence) {
   EXPECT_GT(at_ramp, static_cast<int>(obs.size()) / 3);
 }
 
+// A clipped highlight is not missing at random: the pixels linearize distrusts
+// are the footprint's brightest. The mean of the rest is biased, so a
+// footprint that holds any is dropped (default), not averaged over what is
+// left (max_distrusted_share = 1, observe stage version 2). On an affine image
+// every unbiased footprint mean equals the centre value (1e-4).
+TEST_F(ObserveTest, FootprintsWithClippedPixelsAreDroppedNotAveraged) {
+  const TriangleMesh grid = Grid(21);
+  const RayCaster caster({&grid});
+  Image radiance = AffineImage(160, 120);
+  Image confidence(160, 120, 1, 1.0f);
+  for (int y = 40; y < 80; ++y)
+    for (int x = 70; x < 90; ++x) {
+      confidence.at(x, y) = 0.0f;  // an over-exposed highlight: recorded at the clip level
+      for (int c = 0; c < 3; ++c) radiance.at(x, y, c) = 1.0f;
+    }
+  const ImageRecord pose = LookAt({0.3, -0.2, 3.0});
+  PhotoView view{camera_, pose, &radiance, &confidence};
+  auto centre_error = [&](const Observation& o) {
+    const Eigen::Vector2d px = camera_.ImageFromCamera(pose.CamFromWorld(grid.vertices[o.vertex].cast<double>()));
+    return std::max(std::abs(o.rgb[0] - (0.1 + 0.002 * px.x())), std::abs(o.rgb[1] - (0.2 + 0.003 * px.y())));
+  };
+
+  size_t dropped = 0;
+  const auto kept = ObservePhoto(grid, VertexFootprintRadius(grid), caster, view, 0, options_, &dropped);
+  ASSERT_GT(kept.size(), 200u);
+  for (const Observation& o : kept) EXPECT_LT(centre_error(o), 1e-4) << "vertex " << o.vertex;
+
+  ObserveOptions averaging = options_;
+  averaging.max_distrusted_share = 1.0;
+  const auto all = ObservePhoto(grid, VertexFootprintRadius(grid), caster, view, 0, averaging);
+  EXPECT_EQ(all.size(), kept.size() + dropped);
+  // The footprints that straddle the highlight's border: confidence between 0 and 1, and a biased mean.
+  int partial = 0, biased = 0;
+  for (const Observation& o : all) {
+    if (o.confidence < 0.999f && o.confidence > 0.0f) ++partial;
+    biased += centre_error(o) > 1e-3;
+  }
+  EXPECT_GE(dropped, 4u);
+  EXPECT_GE(biased, 4);
+  EXPECT_GE(partial, biased);
+}
+
 TEST_F(ObserveTest, FileRoundTripAndDamage) {
   testing::TempDir dir;
   ObservationSet set;
