@@ -195,7 +195,7 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
     const double confidence = pixel_confidence * Ramp(angle_deg, o.grazing_min_deg, o.grazing_full_deg) * edge_factor;
     if (confidence < o.min_confidence || confidence <= 0) return;
     // Clipped pixels are the footprint's brightest (or darkest): the mean of the rest is biased, not noisier.
-    if (1.0 - pixel_confidence > o.max_distrusted_share) {
+    if (1.0 - pixel_confidence > o.max_distrusted_share + 1e-6) {  // 1e-6: rounding of the bilinear taps
       clipped.fetch_add(1, std::memory_order_relaxed);
       return;
     }

@@ -4,11 +4,11 @@
 // the camera and agrees with the depth map. Its colour is the confidence-
 // weighted mean of the linear photo over a footprint matching the vertex's
 // projected share of the surface (an image pyramid keeps that O(1) per vertex).
-// A footprint holding distrusted pixels (linearize: clipped) is dropped, since
-// the mean of the rest would be biased low on highlights (high in crushed
-// shadows). Its confidence multiplies: the trusted fraction of the footprint,
-// a ramp on the view angle (low at grazing angles) and a ramp on the distance
-// to silhouettes and depth discontinuities.
+// A footprint holding more than a share of distrusted pixels (linearize:
+// clipped) is dropped, since the mean of the rest would be biased low on
+// highlights (high in crushed shadows). Its confidence multiplies: the trusted
+// fraction of the footprint, a ramp on the view angle (low at grazing angles)
+// and a ramp on the distance to silhouettes and depth discontinuities.
 #pragma once
 
 #include <string>

@@ -20,7 +20,7 @@ struct ObserveOptions {
   double min_confidence = 0.05;       // Observations below this confidence are dropped.
   double footprint_scale = 1.0;       // Sampling footprint radius relative to the vertex's projected radius.
   double border_margin_px = 2.0;      // Projections closer than this to the image border are dropped.
-  double max_distrusted_share = 0.001;  // Footprints with more distrusted (clipped) pixels than this are dropped.
+  double max_distrusted_share = 0.25;  // Footprints with a larger share of distrusted (clipped) pixels are dropped.
 
   void Declare(OptionTable* t) {
     t->Add("grazing_min_deg", &grazing_min_deg,
@@ -47,9 +47,10 @@ struct ObserveOptions {
     t->Add("max_distrusted_share", &max_distrusted_share,
            "An observation whose footprint holds a larger share of distrusted pixels (linearize: over-exposed, "
            "black-clipped or next to a clipped pixel) is dropped. The mean of the remaining pixels would be biased: "
-           "the distrusted ones are the brightest (highlights) or the darkest, not a random share. 0.001 only "
-           "tolerates rounding; 1 keeps such observations with their confidence lowered by the share "
-           "(observe stage version 2).")
+           "the distrusted ones are the brightest (highlights) or the darkest, not a random share. Kept observations "
+           "have their confidence lowered by the share. 0 drops every footprint that touches a clipped pixel, which "
+           "under heavy over-exposure loses more than the bias costs; 1 keeps them all (observe stage version 2). "
+           "docs/RESULTS.md measures both ends.")
         .Range(0, 1);
   }
   void Check() const {

@@ -260,9 +260,9 @@ TEST_F(ObserveTest, ClippedPixelsAndGrazingAnglesLowerConfidence) {
 
 // A clipped highlight is not missing at random: the pixels linearize distrusts
 // are the footprint's brightest. The mean of the rest is biased, so a
-// footprint that holds any is dropped (default), not averaged over what is
-// left (max_distrusted_share = 1, observe stage version 2). On an affine image
-// every unbiased footprint mean equals the centre value (1e-4).
+// footprint that holds more than max_distrusted_share of them is dropped
+// rather than averaged over what is left (1: observe stage version 2). On an
+// affine image every unbiased footprint mean equals the centre value (1e-4).
 TEST_F(ObserveTest, FootprintsWithClippedPixelsAreDroppedNotAveraged) {
   const TriangleMesh grid = Grid(21);
   const RayCaster caster({&grid});
@@ -279,25 +279,33 @@ TEST_F(ObserveTest, FootprintsWithClippedPixelsAreDroppedNotAveraged) {
     const Eigen::Vector2d px = camera_.ImageFromCamera(pose.CamFromWorld(grid.vertices[o.vertex].cast<double>()));
     return std::max(std::abs(o.rgb[0] - (0.1 + 0.002 * px.x())), std::abs(o.rgb[1] - (0.2 + 0.003 * px.y())));
   };
+  auto observe = [&](double max_share, size_t* dropped) {
+    ObserveOptions o = options_;
+    o.max_distrusted_share = max_share;
+    return ObservePhoto(grid, VertexFootprintRadius(grid), caster, view, 0, o, dropped);
+  };
 
-  size_t dropped = 0;
-  const auto kept = ObservePhoto(grid, VertexFootprintRadius(grid), caster, view, 0, options_, &dropped);
-  ASSERT_GT(kept.size(), 200u);
-  for (const Observation& o : kept) EXPECT_LT(centre_error(o), 1e-4) << "vertex " << o.vertex;
+  // Strict: nothing touching the highlight is kept, and everything kept is unbiased.
+  size_t dropped_strict = 0;
+  const auto strict = observe(0.0, &dropped_strict);
+  ASSERT_GT(strict.size(), 200u);
+  for (const Observation& o : strict) EXPECT_LT(centre_error(o), 1e-4) << "vertex " << o.vertex;
 
-  ObserveOptions averaging = options_;
-  averaging.max_distrusted_share = 1.0;
-  const auto all = ObservePhoto(grid, VertexFootprintRadius(grid), caster, view, 0, averaging);
-  EXPECT_EQ(all.size(), kept.size() + dropped);
-  // The footprints that straddle the highlight's border: confidence between 0 and 1, and a biased mean.
-  int partial = 0, biased = 0;
-  for (const Observation& o : all) {
-    if (o.confidence < 0.999f && o.confidence > 0.0f) ++partial;
-    biased += centre_error(o) > 1e-3;
-  }
-  EXPECT_GE(dropped, 4u);
+  // Averaging everything (version 2): the straddling footprints come back, with a biased mean.
+  size_t dropped_none = 1;
+  const auto all = observe(1.0, &dropped_none);
+  EXPECT_EQ(dropped_none, 0u);
+  EXPECT_EQ(all.size(), strict.size() + dropped_strict);
+  int biased = 0;
+  for (const Observation& o : all) biased += centre_error(o) > 1e-3;
   EXPECT_GE(biased, 4);
-  EXPECT_GE(partial, biased);
+
+  // The default keeps footprints up to a quarter distrusted: in between, and every dropped one is counted.
+  size_t dropped_default = 0;
+  const auto kept = observe(ObserveOptions().max_distrusted_share, &dropped_default);
+  EXPECT_EQ(all.size(), kept.size() + dropped_default);
+  EXPECT_GT(dropped_default, 0u);
+  EXPECT_LT(dropped_default, dropped_strict);
 }
 
 TEST_F(ObserveTest, FileRoundTripAndDamage) {
