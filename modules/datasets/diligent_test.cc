@@ -39,7 +39,9 @@ TEST(DiligentTest, ImportedBallProjectsOntoTheMaskAndLightsExplainTheShading) {
     ASSERT_TRUE(model.Project(im, p, &px));
     max_r = std::max(max_r, (px - scene.center_px).norm());
     const int x = static_cast<int>(px.x()), y = static_cast<int>(px.y());
-    if ((px - scene.center_px).norm() < scene.radius_px - 2) EXPECT_GT(mask.at(x, y, 0), 0.5f);
+    if ((px - scene.center_px).norm() < scene.radius_px - 2) {
+      EXPECT_GT(mask.at(x, y, 0), 0.5f);
+    }
   }
   EXPECT_NEAR(max_r, scene.radius_px, 1.0);
   // The lights explain the photos: Lambertian shading max(0, n·l) correlates with photo 1.

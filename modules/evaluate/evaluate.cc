@@ -56,10 +56,11 @@ bool ReadResolvedOptions(const std::string& stage_dir, const std::string& sectio
 }
 
 // Which vertices photo `photo` observes (1 = observed), one entry per vertex.
+// Lower bounds (clipped footprints) do not count: their pixels are not a measurement.
 std::vector<char> ObservedVertices(const ObservationSet& obs, uint32_t photo) {
   std::vector<char> observed(obs.num_vertices, 0);
   for (const auto& o : obs.records)
-    if (o.photo == photo) observed[o.vertex] = 1;
+    if (o.photo == photo && !o.lower_bound()) observed[o.vertex] = 1;
   return observed;
 }
 
@@ -561,7 +562,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
           mesh_source == "ground_truth" && truth_mesh.num_vertices() == model_mesh.num_vertices() && frame.IsIdentity();
       std::vector<char> seen(model_mesh.num_vertices(), 0);
       for (const auto& ob : observations.records)
-        if (ob.vertex < seen.size()) seen[ob.vertex] = 1;
+        if (ob.vertex < seen.size() && !ob.lower_bound()) seen[ob.vertex] = 1;
       if (observations.records.empty()) std::fill(seen.begin(), seen.end(), 1);
       const TriangleMesh model_in_truth = frame.MeshToTruth(model_mesh);
       std::unique_ptr<SurfaceIndex> index;

@@ -29,6 +29,7 @@ void WriteObservations(const std::string& path, const ObservationSet& set) {
     out.append(reinterpret_cast<const char*>(o.rgb), 12);
     Put(&out, o.confidence);
     out.append(reinterpret_cast<const char*>(o.view_local), 12);
+    Put(&out, o.flags);
   }
   WriteFileAtomic(path, out);
 }
@@ -48,15 +49,16 @@ ObservationSet ReadObservations(const std::string& path) {
   };
   uint32_t version;
   get(&version, 4);
-  if (version != kObservationsVersion) {
-    damaged("version " + std::to_string(version) + ", this build reads " + std::to_string(kObservationsVersion));
+  if (version != kObservationsVersion && version != 1) {
+    damaged("version " + std::to_string(version) + ", this build reads 1 to " + std::to_string(kObservationsVersion));
   }
   ObservationSet set;
   uint64_t count;
   get(&set.num_photos, 4);
   get(&set.num_vertices, 4);
   get(&count, 8);
-  if (data.size() - pos != count * 36) damaged("size does not match the record count");
+  const size_t record_bytes = version == 1 ? 36 : 40;  // version 1 had no flags
+  if (data.size() - pos != count * record_bytes) damaged("size does not match the record count");
   set.records.resize(count);
   for (Observation& o : set.records) {
     get(&o.photo, 4);
@@ -64,6 +66,8 @@ ObservationSet ReadObservations(const std::string& path) {
     get(o.rgb, 12);
     get(&o.confidence, 4);
     get(o.view_local, 12);
+    if (version >= 2) get(&o.flags, 4);
+    if (o.flags & ~kObservationLowerBound) damaged("unknown flags");
     if (o.photo >= set.num_photos || o.vertex >= set.num_vertices) damaged("index out of range");
   }
   return set;

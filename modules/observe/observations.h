@@ -18,7 +18,24 @@ struct Observation {
   float rgb[3] = {0, 0, 0};         // linear radiance
   float confidence = 0;             // alpha_y in [0, 1]
   float view_local[3] = {0, 0, 1};  // unit direction to the camera, vertex's local frame (sphere/frame.h)
+  uint32_t flags = 0;               // kObservationLowerBound, …
+
+  bool lower_bound() const;
 };
+
+// The footprint held clipped pixels: `rgb` (the mean over all its pixels,
+// clipped ones at their clipped value) is a lower bound of the true radiance,
+// not an estimate. Solvers enforce it only while their prediction falls below
+// (a censored, one-sided residual).
+inline constexpr uint32_t kObservationLowerBound = 1u;
+
+inline bool Observation::lower_bound() const { return (flags & kObservationLowerBound) != 0; }
+
+// y − ŷ of channel c, censored for lower bounds: 0 where the prediction is at or above the bound.
+inline float CensoredResidual(const Observation& ob, int c, float predicted) {
+  const float e = ob.rgb[c] - predicted;
+  return ob.lower_bound() && e < 0 ? 0.0f : e;
+}
 
 struct ObservationSet {
   uint32_t num_photos = 0;
@@ -38,7 +55,7 @@ struct ObservedPhoto {
 };
 
 inline constexpr char kObservationsMagic[8] = {'R', 'L', 'O', 'B', 'S', 0, 0, 0};
-inline constexpr uint32_t kObservationsVersion = 1;
+inline constexpr uint32_t kObservationsVersion = 2;  // 2 added `flags`; version 1 files are still read
 
 // Writes atomically. Throws UserError naming the file on I/O failure.
 void WriteObservations(const std::string& path, const ObservationSet& set);

@@ -81,22 +81,26 @@ std::vector<float> VertexFootprintRadius(const TriangleMesh& mesh) {
 
 namespace {
 
-// Premultiplied (radiance × confidence, confidence) pyramid for footprint sampling.
+// Premultiplied (radiance × confidence, confidence) pyramid for footprint
+// sampling, and the plain radiance pyramid for lower bounds over clipped footprints.
 struct Pyramid {
   std::vector<Image> weighted;    // RGB, radiance × confidence
   std::vector<Image> confidence;  // 1 channel
+  std::vector<Image> plain;       // RGB, radiance (clipped pixels at their clipped value); empty unless kept
 
-  Pyramid(const Image& radiance, const Image& conf, int max_levels = 6) {
+  Pyramid(const Image& radiance, const Image& conf, bool keep_plain, int max_levels = 6) {
     Image w(radiance.width, radiance.height, 3);
     for (int y = 0; y < radiance.height; ++y)
       for (int x = 0; x < radiance.width; ++x)
         for (int c = 0; c < 3; ++c) w.at(x, y, c) = radiance.at(x, y, c) * conf.at(x, y);
     weighted.push_back(std::move(w));
     confidence.push_back(conf);
+    if (keep_plain) plain.push_back(radiance);
     while (static_cast<int>(weighted.size()) < max_levels && weighted.back().width >= 8 &&
            weighted.back().height >= 8) {
       weighted.push_back(Half(weighted.back()));
       confidence.push_back(Half(confidence.back()));
+      if (keep_plain) plain.push_back(Half(plain.back()));
     }
   }
   static Image Half(const Image& in) {
@@ -110,15 +114,17 @@ struct Pyramid {
   }
 
   // Confidence-weighted mean colour over a disc of `radius_px` (level-0 pixels)
-  // around `center_px`; returns the mean confidence over the disc.
-  double Sample(const Eigen::Vector2d& center_px, double radius_px, float rgb[3]) const {
+  // around `center_px`; returns the mean confidence over the disc. With
+  // `plain_rgb`, also the unweighted mean over the same taps.
+  double Sample(const Eigen::Vector2d& center_px, double radius_px, float rgb[3], float* plain_rgb = nullptr) const {
     int level = 0;
     while (level + 1 < static_cast<int>(weighted.size()) && radius_px / (1 << (level + 1)) >= 1.5) ++level;
     const double s = 1.0 / (1 << level);
     const double r = radius_px * s;
     const int k = std::clamp(static_cast<int>(std::ceil(r)), 1, 3);
-    double sum_w[3] = {0, 0, 0}, sum_c = 0;
+    double sum_w[3] = {0, 0, 0}, sum_p[3] = {0, 0, 0}, sum_c = 0;
     int n = 0;
+    const bool with_plain = plain_rgb != nullptr && !plain.empty();
     for (int j = -k; j <= k; ++j) {
       for (int i = -k; i <= k; ++i) {
         const double dx = r * i / k, dy = r * j / k;
@@ -128,10 +134,17 @@ struct Pyramid {
         SampleBilinear(weighted[level], x, y, w);
         SampleBilinear(confidence[level], x, y, &c);
         for (int q = 0; q < 3; ++q) sum_w[q] += w[q];
+        if (with_plain) {
+          float p[3];
+          SampleBilinear(plain[level], x, y, p);
+          for (int q = 0; q < 3; ++q) sum_p[q] += p[q];
+        }
         sum_c += c;
         ++n;
       }
     }
+    if (with_plain)
+      for (int q = 0; q < 3; ++q) plain_rgb[q] = static_cast<float>(sum_p[q] / std::max(1, n));
     if (sum_c <= 1e-9) return 0.0;
     for (int q = 0; q < 3; ++q) rgb[q] = static_cast<float>(sum_w[q] / sum_c);
     return sum_c / n;
@@ -152,7 +165,8 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
   RELIGHT_CHECK(photo.radiance->width == photo.camera.width && photo.radiance->height == photo.camera.height);
   const Image depth = RenderDepthMap(caster, photo.camera, photo.pose);
   const Image edge_distance = DepthEdgeDistance(depth, o.depth_edge_jump);
-  const Pyramid pyramid(*photo.radiance, *photo.confidence);
+  const bool lower_bounds = o.clipped_footprints == "lower_bound";
+  const Pyramid pyramid(*photo.radiance, *photo.confidence, lower_bounds);
   const Eigen::Vector3d center = photo.pose.ProjectionCenter();
   const double edge_tolerance = 0.5 * mesh.MeanEdgeLength();
   const double cos_zero = std::cos(o.grazing_min_deg * M_PI / 180.0);
@@ -190,13 +204,21 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
         o.edge_margin_px > 0 ? Ramp(edge_distance.at(ix, iy) - radius_px, 0.0, o.edge_margin_px) : 1.0;
     if (edge_factor <= 0) return;
     Observation obs;
-    const double pixel_confidence = pyramid.Sample(px, radius_px, obs.rgb);
+    float plain_rgb[3] = {0, 0, 0};
+    const double pixel_confidence = pyramid.Sample(px, radius_px, obs.rgb, plain_rgb);
     const double angle_deg = std::acos(std::min(1.0, cos_view)) * 180.0 / M_PI;
-    const double confidence = pixel_confidence * Ramp(angle_deg, o.grazing_min_deg, o.grazing_full_deg) * edge_factor;
-    if (confidence < o.min_confidence || confidence <= 0) return;
+    const double geometric_confidence = Ramp(angle_deg, o.grazing_min_deg, o.grazing_full_deg) * edge_factor;
+    double confidence = pixel_confidence * geometric_confidence;
     // Clipped pixels are the footprint's brightest (or darkest): the mean of the rest is biased, not noisier.
     if (1.0 - pixel_confidence > o.max_distrusted_share + 1e-6) {  // 1e-6: rounding of the bilinear taps
+      if (geometric_confidence < o.min_confidence || geometric_confidence <= 0) return;
       clipped.fetch_add(1, std::memory_order_relaxed);
+      if (!lower_bounds) return;
+      // Every pixel at its value, clipped ones at the clip level: at most the true mean.
+      for (int c = 0; c < 3; ++c) obs.rgb[c] = plain_rgb[c];
+      obs.flags = kObservationLowerBound;
+      confidence = geometric_confidence;
+    } else if (confidence < o.min_confidence || confidence <= 0) {
       return;
     }
     obs.photo = photo_index;
@@ -299,11 +321,17 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
   ObservationSet all;
   all.num_photos = static_cast<uint32_t>(images.size());
   all.num_vertices = static_cast<uint32_t>(mesh.num_vertices());
-  std::vector<int> per_vertex(mesh.num_vertices(), 0);
-  for (const auto& records : per_photo) {
-    for (const auto& o : records) {
+  std::vector<int> per_vertex(mesh.num_vertices(), 0);  // exact observations (lower bounds do not count)
+  std::vector<size_t> lower_bounds_per_photo(images.size(), 0);
+  for (size_t i = 0; i < per_photo.size(); ++i) {
+    for (const auto& o : per_photo[i]) {
       all.records.push_back(o);
-      ++per_vertex[o.vertex];
+      if (o.lower_bound()) {
+        ++lower_bounds_per_photo[i];
+        ++summary.lower_bounds;
+      } else {
+        ++per_vertex[o.vertex];
+      }
     }
   }
   WriteObservations(JoinPath(output_dir, "observations.bin"), all);
@@ -315,7 +343,8 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
   coverage["vertices"] = mesh.num_vertices();
   coverage["observations"] = summary.observations;
   coverage["unobserved_vertices"] = summary.unobserved_vertices;
-  coverage["dropped_clipped_footprints"] = summary.clipped_footprints;
+  coverage["clipped_footprints"] = summary.clipped_footprints;
+  coverage["lower_bounds"] = summary.lower_bounds;
   std::map<int, int> histogram;
   for (int c : per_vertex) ++histogram[std::min(c, 20)];
   Json hist = Json::object();
@@ -328,7 +357,8 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
                   {"observed_vertices", p.observed_vertices},
                   {"observed_fraction", double(p.observed_vertices) / std::max<size_t>(1, mesh.num_vertices())},
                   {"mean_confidence", p.mean_confidence}};
-    if (clipped_per_photo[i] >= 0) entry["dropped_clipped_footprints"] = clipped_per_photo[i];
+    if (clipped_per_photo[i] >= 0) entry["clipped_footprints"] = clipped_per_photo[i];
+    entry["lower_bounds"] = lower_bounds_per_photo[i];
     per.push_back(entry);
   }
   coverage["photos"] = per;
@@ -336,10 +366,10 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
   coverage["reused_photos"] = summary.reused_photos;
   coverage["seconds"] = summary.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "coverage.json"), coverage);
-  RLOG_INFO("{} observations of {} vertices in {} photos ({} vertices unobserved; {} footprints with clipped pixels "
-            "dropped) in {:.1f} s",
+  RLOG_INFO("{} observations of {} vertices in {} photos ({} vertices unobserved; {} footprints with clipped pixels, "
+            "{} of them kept as lower bounds) in {:.1f} s",
             summary.observations, mesh.num_vertices(), summary.photos, summary.unobserved_vertices,
-            summary.clipped_footprints, summary.seconds);
+            summary.clipped_footprints, summary.lower_bounds, summary.seconds);
   if (summary.unobserved_vertices > mesh.num_vertices() / 2) {
     RLOG_WARN("more than half of the vertices are seen in no photo; is the mesh in the SfM frame?");
   }

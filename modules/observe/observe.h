@@ -5,9 +5,12 @@
 // weighted mean of the linear photo over a footprint matching the vertex's
 // projected share of the surface (an image pyramid keeps that O(1) per vertex).
 // A footprint holding more than a share of distrusted pixels (linearize:
-// clipped) is dropped, since the mean of the rest would be biased low on
-// highlights (high in crushed shadows). Its confidence multiplies: the trusted
-// fraction of the footprint, a ramp on the view angle (low at grazing angles)
+// clipped) does not give that mean, which would be biased low on highlights
+// (high in crushed shadows): by default it gives a lower bound instead, the
+// mean over all its pixels with clipped ones at their clipped value
+// (kObservationLowerBound; the solver enforces it one-sided), or it is
+// dropped. The confidence multiplies: the trusted fraction of the footprint
+// (not for lower bounds), a ramp on the view angle (low at grazing angles)
 // and a ramp on the distance to silhouettes and depth discontinuities.
 #pragma once
 
@@ -45,7 +48,8 @@ struct PhotoView {
 
 // Observations of the mesh's vertices (normals required) in one photo;
 // `clipped_footprints`, when given, receives how many otherwise valid
-// observations were dropped for distrusted pixels (options.max_distrusted_share).
+// footprints held too many distrusted pixels (options.max_distrusted_share),
+// whether kept as lower bounds or dropped (options.clipped_footprints).
 std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vector<float>& footprint_radius,
                                       const RayCaster& caster, const PhotoView& photo, uint32_t photo_index,
                                       const ObserveOptions& options, size_t* clipped_footprints = nullptr);
@@ -54,8 +58,9 @@ struct ObserveSummary {
   int photos = 0;
   int reused_photos = 0;           // finished by an earlier, killed run
   size_t observations = 0;
-  size_t unobserved_vertices = 0;  // vertices seen in no photo
-  size_t clipped_footprints = 0;   // observations dropped for clipped pixels (photos observed in this run)
+  size_t unobserved_vertices = 0;  // vertices with no exact observation (lower bounds do not count)
+  size_t clipped_footprints = 0;   // footprints over max_distrusted_share (photos observed in this run)
+  size_t lower_bounds = 0;         // of those, kept as lower bounds (all photos)
   double seconds = 0;
 };
 

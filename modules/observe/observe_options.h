@@ -2,6 +2,8 @@
 // colour, local view direction and a confidence.
 #pragma once
 
+#include <string>
+
 #include "core/error.h"
 #include "core/options.h"
 #include "core/stage.h"
@@ -9,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kObserveStage{
-    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 3};
+    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 4};
 
 struct ObserveOptions {
   double grazing_min_deg = 80.0;      // View angles beyond this (from the normal) get confidence 0.
@@ -20,7 +22,8 @@ struct ObserveOptions {
   double min_confidence = 0.05;       // Observations below this confidence are dropped.
   double footprint_scale = 1.0;       // Sampling footprint radius relative to the vertex's projected radius.
   double border_margin_px = 2.0;      // Projections closer than this to the image border are dropped.
-  double max_distrusted_share = 0.25;  // Footprints with a larger share of distrusted (clipped) pixels are dropped.
+  double max_distrusted_share = 0.25;  // Footprints with a larger share of distrusted (clipped) pixels give no mean.
+  std::string clipped_footprints = "lower_bound";  // What such footprints give: lower_bound or drop.
 
   void Declare(OptionTable* t) {
     t->Add("grazing_min_deg", &grazing_min_deg,
@@ -45,13 +48,19 @@ struct ObserveOptions {
     t->Add("border_margin_px", &border_margin_px, "Projections closer than this to the image border are dropped.")
         .Range(0, 100);
     t->Add("max_distrusted_share", &max_distrusted_share,
-           "An observation whose footprint holds a larger share of distrusted pixels (linearize: over-exposed, "
-           "black-clipped or next to a clipped pixel) is dropped. The mean of the remaining pixels would be biased: "
-           "the distrusted ones are the brightest (highlights) or the darkest, not a random share. Kept observations "
-           "have their confidence lowered by the share. 0 drops every footprint that touches a clipped pixel, which "
-           "under heavy over-exposure loses more than the bias costs; 1 keeps them all (observe stage version 2). "
-           "docs/RESULTS.md measures both ends.")
+           "A footprint holding a larger share of distrusted pixels (linearize: over-exposed, black-clipped or next "
+           "to a clipped pixel) gives no ordinary observation: the mean of its remaining pixels would be biased, "
+           "since the distrusted ones are the brightest (highlights) or the darkest, not a random share. What it "
+           "gives instead is set by clipped_footprints. Observations under the share have their confidence lowered "
+           "by it. 0 treats every footprint that touches a clipped pixel so; 1 averages the trusted pixels of all "
+           "(observe stage version 2). docs/RESULTS.md measures both ends.")
         .Range(0, 1);
+    t->Add("clipped_footprints", &clipped_footprints,
+           "What a footprint over max_distrusted_share gives. lower_bound: the mean over all its pixels, clipped "
+           "ones at their clipped value, flagged as a lower bound of the true radiance; the inverse stage enforces "
+           "it only while its prediction falls below (a censored residual), so clipped highlights still say that "
+           "the surface is at least this bright there. drop: nothing (observe stage version 3).")
+        .Choices({"lower_bound", "drop"});
   }
   void Check() const {
     if (grazing_full_deg >= grazing_min_deg) {

@@ -362,8 +362,12 @@ TEST_F(RelightStageTest, UnseenTexelsAreBelowTheGroundAndZeroingThemOnlyRemovesN
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
       const double z = OctTexelDirection(i, j, n).z();
-      if (z > 0.05) EXPECT_FALSE(unseen[j * n + i]) << i << "," << j;
-      if (z < -0.75) EXPECT_TRUE(unseen[j * n + i]) << i << "," << j;
+      if (z > 0.05) {
+        EXPECT_FALSE(unseen[j * n + i]) << i << "," << j;
+      }
+      if (z < -0.75) {
+        EXPECT_TRUE(unseen[j * n + i]) << i << "," << j;
+      }
       seen_lower += z < 0 && !unseen[j * n + i];
     }
   EXPECT_GT(seen_lower, 0) << "the grazing band below the horizon that passes the plane's edge stays";

@@ -110,6 +110,7 @@ struct SolveContext {
   const KnownQuantities* known;
   const TransportStore& transport;
   std::vector<uint32_t> train, holdout;
+  std::vector<uint32_t> train_exact;          // train without lower bounds (initialisation)
   std::vector<std::vector<uint32_t>> subset;  // per photo, lighting-step observations
   std::vector<std::vector<uint32_t>> neighbours;
   std::vector<char> observed;
@@ -163,7 +164,7 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
   if (known != nullptr && known->has_reflectance) {
     reflectance = known->reflectance;  // fixed, or a warm start
   } else {
-    reflectance = InitializeReflectance(obs, ctx.train, nv, basis, spec.materials, o.seed);
+    reflectance = InitializeReflectance(obs, ctx.train_exact, nv, basis, spec.materials, o.seed);
   }
   if (!(o.fixed_reflectance && known != nullptr && known->has_reflectance)) reflectance.lobe_enabled = spec.lobe_enabled;
   const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
@@ -180,6 +181,9 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
   const bool use_robust = solve_reflectance && o.robust_reflectance && o.robust_loss != "none";
   const TransportStore& transport = ctx.transport;
   const std::vector<uint32_t>& train = ctx.train;
+  // Lower bounds (clipped highlights) enter the reflectance step through
+  // active sets (MetLowerBounds), refreshed before every materials and weights solve.
+  const bool has_bounds = ctx.train_exact.size() < train.size();
 
   LightingState best_lighting;
   ReflectanceState best_reflectance;
@@ -211,7 +215,10 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
     std::vector<float> responses = ComputeLobeResponses(transport, obs, train, lighting);
     if (refit_initialisation) {
       // inverse.init = vertex_fits: the materials start from per-vertex fits under this first lighting.
-      reflectance = InitializeReflectanceFromFits(obs, train, responses, nv, basis, spec.materials, o.seed);
+      const std::vector<float> exact_responses =
+          has_bounds ? ComputeLobeResponses(transport, obs, ctx.train_exact, lighting) : std::vector<float>();
+      reflectance = InitializeReflectanceFromFits(obs, ctx.train_exact, has_bounds ? exact_responses : responses, nv,
+                                                  basis, spec.materials, o.seed);
       reflectance.lobe_enabled = spec.lobe_enabled;
       for (int m = 0; m < reflectance.num_materials; ++m)
         for (int b = 0; b < reflectance.num_lobes(); ++b)
@@ -225,10 +232,13 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
     if (use_robust) robust = ReflectanceRobustWeights(obs, train, responses, reflectance, o.robust_loss, o.robust_scale);
     const std::vector<float>* robust_ptr = use_robust ? &robust : nullptr;
     if (solve_reflectance) {
+      std::vector<uint8_t> met;
       for (int inner = 0; inner < o.material_iterations; ++inner) {
-        SolveMaterials(obs, train, responses, &reflectance, robust_ptr);
+        if (has_bounds) met = MetLowerBounds(obs, train, responses, reflectance);
+        SolveMaterials(obs, train, responses, &reflectance, robust_ptr, &met);
+        if (has_bounds) met = MetLowerBounds(obs, train, responses, reflectance);
         SolveWeights(obs, train, responses, o.sparsity, &reflectance, &ctx.neighbours, o.weight_smoothness,
-                     robust_ptr);
+                     robust_ptr, &met);
       }
     }
     rec.reflectance_seconds = step.Seconds();
@@ -355,7 +365,11 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   for (size_t k = 0; k < obs.records.size(); ++k) {
     (uniform(rng) < o.holdout_fraction ? ctx.holdout : ctx.train).push_back(static_cast<uint32_t>(k));
   }
+  for (uint32_t k : ctx.train)
+    if (!obs.records[k].lower_bound()) ctx.train_exact.push_back(k);
   summary.train_observations = ctx.train.size();
+  summary.lower_bounds = obs.records.size();
+  for (const Observation& ob : obs.records) summary.lower_bounds -= !ob.lower_bound();
   summary.holdout_observations = ctx.holdout.size();
   ctx.subset.resize(num_photos);
   for (uint32_t k : ctx.train) ctx.subset[obs.records[k].photo].push_back(k);
@@ -368,7 +382,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   }
   if (o.weight_smoothness > 0) ctx.neighbours = VertexNeighbours(problem.mesh);
   ctx.observed.assign(nv, 0);
-  for (uint32_t k : ctx.train) ctx.observed[obs.records[k].vertex] = 1;
+  for (uint32_t k : ctx.train_exact) ctx.observed[obs.records[k].vertex] = 1;
 
   ModelSpec spec;
   spec.lobe_enabled.assign(basis.size(), 1);
@@ -605,6 +619,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   j["observations"] = problem.observations.records.size();
   j["train_observations"] = s.train_observations;
   j["holdout_observations"] = s.holdout_observations;
+  j["lower_bounds"] = s.lower_bounds;
   j["transport_seconds"] = s.transport_seconds;
   j["transport_mean_coefficients_per_row"] = s.transport_mean_coefficients_per_row;
   Json iters = Json::array();

@@ -71,6 +71,7 @@ struct InverseSummary {
   double transport_mean_coefficients_per_row = 0;
   size_t train_observations = 0;
   size_t holdout_observations = 0;
+  size_t lower_bounds = 0;  // observations that are lower bounds (clipped footprints), train and held out
   std::string stop_reason;
   std::vector<ModelCandidate> candidates;  // model selection: every model tried
   std::string chosen_model;                // the model of the final solve

@@ -52,6 +52,9 @@ std::vector<double> RobustWeights(const std::vector<double>& residuals, const st
 
 namespace {
 
+// Active-set rounds for lower bounds per channel and reweighting pass (each a QP solve).
+constexpr int kMaxBoundRounds = 16;
+
 // Non-negativity at sample directions for SH lighting: exact-penalty active set.
 Eigen::VectorXd SolveShNonNegative(const Eigen::MatrixXd& Q, const Eigen::VectorXd& q, const Eigen::MatrixXd& basis,
                                    int* iterations) {
@@ -122,6 +125,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
     std::array<RowMatrix, 3> a;
     std::array<Eigen::VectorXf, 3> y;
     Eigen::VectorXd alpha(rows);
+    std::vector<char> lower(rows, 0);  // lower bounds (kObservationLowerBound)
     for (int c = 0; c < 3; ++c) {
       a[c] = RowMatrix::Zero(rows, dim);
       y[c].resize(rows);
@@ -132,6 +136,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
       const Observation& ob = observations.records[o];
       reflectance.VertexLobeWeights(ob.vertex, rho.data());
       alpha[r] = ob.confidence;
+      lower[r] = ob.lower_bound();
       for (int c = 0; c < 3; ++c) y[c][r] = ob.rgb[c];
       for (int b = 0; b < num_lobes; ++b) {
         const TransportStore::Row row = transport.Get(o, ob.vertex, b);
@@ -155,23 +160,27 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
     }
 
     std::vector<double> robust(rows, 1.0);
+    std::vector<Eigen::Index> exact_rows, bound_rows;
+    for (Eigen::Index r = 0; r < rows; ++r) (lower[r] ? bound_rows : exact_rows).push_back(r);
+    // Σ w a aᵀ (lower triangle) and Σ w y a over the listed rows of channel c.
+    auto accumulate = [&](int c, const std::vector<Eigen::Index>& list, Eigen::MatrixXd* q, Eigen::VectorXd* rhs) {
+      RowMatrix aw(static_cast<Eigen::Index>(list.size()), dim);
+      Eigen::VectorXf yw(static_cast<Eigen::Index>(list.size()));
+      for (size_t k = 0; k < list.size(); ++k) {
+        const Eigen::Index r = list[k];
+        const float sw = static_cast<float>(std::sqrt(alpha[r] * robust[r]));
+        aw.row(static_cast<Eigen::Index>(k)) = sw * a[c].row(r);
+        yw[static_cast<Eigen::Index>(k)] = sw * y[c][r];
+      }
+      Eigen::MatrixXf qf = Eigen::MatrixXf::Zero(dim, dim);
+      qf.selfadjointView<Eigen::Lower>().rankUpdate(aw.transpose());
+      *q = Eigen::MatrixXd(qf.cast<double>().selfadjointView<Eigen::Lower>());
+      *rhs = (aw.transpose() * yw).cast<double>();
+    };
     for (int pass = 0; pass < options.irls_iterations; ++pass) {
       std::vector<double> residual(rows, 0.0);
       double sse = 0, wsum = 0;
       for (int c = 0; c < 3; ++c) {
-        Eigen::VectorXf sw(rows);
-        for (Eigen::Index r = 0; r < rows; ++r) sw[r] = static_cast<float>(std::sqrt(alpha[r] * robust[r]));
-        const RowMatrix aw = sw.asDiagonal() * a[c];
-        Eigen::MatrixXf qf = Eigen::MatrixXf::Zero(dim, dim);
-        qf.selfadjointView<Eigen::Lower>().rankUpdate(aw.transpose());
-        const Eigen::MatrixXd q_lower = qf.cast<double>();
-        Eigen::MatrixXd q_mat = q_lower.selfadjointView<Eigen::Lower>();
-        const Eigen::VectorXf rhs_f = aw.transpose() * sw.cwiseProduct(y[c]);
-        const Eigen::VectorXd rhs = rhs_f.cast<double>();
-        const double lambda = options.smoothness * std::max(1e-30, q_mat.diagonal().maxCoeff());
-        q_mat += lambda * regularizer;
-        // A vanishing ridge keeps texels no observation sees well-posed (they stay at the smooth fill-in).
-        q_mat.diagonal().array() += 1e-9 * std::max(1e-30, q_mat.diagonal().maxCoeff());
         // Warm start: the current map, block-averaged to the solve resolution.
         Eigen::VectorXd x(dim);
         if (block == 1) {
@@ -185,13 +194,46 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
             x[k] = sum / (block * block);
           }
         }
-        if (haar) {
-          const QpSummary s = SolveNonNegativeQp(options.qp_solver, q_mat, rhs, &x);
-          result.qp_iterations[i] += s.iterations;
-        } else {
-          int it = 0;
-          x = SolveShNonNegative(q_mat, rhs, sh_constraint, &it);
-          result.qp_iterations[i] += it;
+        Eigen::MatrixXd q_exact;
+        Eigen::VectorXd rhs_exact;
+        accumulate(c, exact_rows, &q_exact, &rhs_exact);
+        // λ from the whole system (every row), so it does not move with the active set.
+        Eigen::VectorXd diagonal = q_exact.diagonal();
+        for (Eigen::Index r : bound_rows) diagonal += (alpha[r] * robust[r]) * a[c].row(r).cast<double>().cwiseAbs2().transpose();
+        const double diagonal_max = std::max(1e-30, diagonal.maxCoeff());
+        const double lambda = options.smoothness * diagonal_max;
+        // Lower bounds by an active set (semismooth Newton on the censored objective): the bounds the
+        // current map misses enter as ordinary rows; re-solve until that set no longer changes.
+        std::vector<Eigen::Index> active;
+        for (int round = 0; round < (bound_rows.empty() ? 1 : kMaxBoundRounds); ++round) {
+          std::vector<Eigen::Index> missed;
+          if (!bound_rows.empty()) {
+            const Eigen::VectorXf xf = x.cast<float>();
+            for (Eigen::Index r : bound_rows)
+              if (a[c].row(r).dot(xf) < y[c][r]) missed.push_back(r);
+            if (round > 0 && missed == active) break;
+            active = missed;
+          }
+          Eigen::MatrixXd q_mat = q_exact;
+          Eigen::VectorXd rhs = rhs_exact;
+          if (!active.empty()) {
+            Eigen::MatrixXd q_active;
+            Eigen::VectorXd rhs_active;
+            accumulate(c, active, &q_active, &rhs_active);
+            q_mat += q_active;
+            rhs += rhs_active;
+          }
+          q_mat += lambda * regularizer;
+          // A vanishing ridge keeps texels no observation sees well-posed (they stay at the smooth fill-in).
+          q_mat.diagonal().array() += 1e-9 * diagonal_max;
+          if (haar) {
+            const QpSummary qs = SolveNonNegativeQp(options.qp_solver, q_mat, rhs, &x);
+            result.qp_iterations[i] += qs.iterations;
+          } else {
+            int it = 0;
+            x = SolveShNonNegative(q_mat, rhs, sh_constraint, &it);
+            result.qp_iterations[i] += it;
+          }
         }
         if (block == 1) {
           for (int k = 0; k < dim; ++k) lighting->values[i][c][k] = static_cast<float>(x[k]);
@@ -203,7 +245,8 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         }
         const Eigen::VectorXf pred = a[c] * x.cast<float>();
         for (Eigen::Index r = 0; r < rows; ++r) {
-          const double e = double(y[c][r]) - pred[r];
+          double e = double(y[c][r]) - pred[r];
+          if (lower[r] && e < 0) e = 0;  // a lower bound the prediction meets
           residual[r] += e * e;
           sse += alpha[r] * e * e;
           wsum += alpha[r];

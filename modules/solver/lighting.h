@@ -6,6 +6,10 @@
 // the octahedral grid Laplacian Δ and λ a fraction of the system's largest
 // diagonal value. For the SH baseline L is a coefficient vector, the Laplacian
 // is diagonal (l(l+1)) and non-negativity holds at the octahedral texel centres.
+// A lower bound (kObservationLowerBound: a clipped footprint) contributes the
+// censored max(0, y_o − r_o·L)², by an active set (semismooth Newton): the
+// bounds that the current map misses enter the QP as ordinary rows, and the QP
+// is solved again until that set stops changing (at most 16 rounds).
 #pragma once
 
 #include <vector>

@@ -313,7 +313,7 @@ std::vector<float> ReflectanceRobustWeights(const ObservationSet& observations, 
       for (int c = 0; c < 3; ++c) {
         double pred = 0;
         for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * resp[b * 3 + c];
-        const double e = ob.rgb[c] - pred;
+        const double e = CensoredResidual(ob, c, static_cast<float>(pred));
         e2 += e * e;
       }
       residual[k] = std::sqrt(e2);
@@ -354,8 +354,10 @@ std::vector<std::vector<uint32_t>> VertexNeighbours(const TriangleMesh& mesh) {
 void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
                   const std::vector<float>& responses, double sparsity, ReflectanceState* state,
                   const std::vector<std::vector<uint32_t>>* neighbours, double smoothness,
-                  const std::vector<float>* robust) {
+                  const std::vector<float>* robust, const std::vector<uint8_t>* censored) {
   RELIGHT_CHECK(robust == nullptr || robust->size() == train.size()) << "one robust weight per observation";
+  RELIGHT_CHECK(censored == nullptr || censored->empty() || censored->size() == 3 * train.size())
+      << "one censoring flag per observation and channel";
   const int m_count = state->num_materials, b_count = state->num_lobes();
   const size_t nv = state->weights.size() / m_count;
   const std::vector<float> previous = smoothness > 0 ? state->weights : std::vector<float>();
@@ -381,6 +383,7 @@ void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t
       const double alpha = robust != nullptr ? double(ob.confidence) * (*robust)[k] : double(ob.confidence);
       const float* resp = responses.data() + size_t(k) * b_count * 3;
       for (int c = 0; c < 3; ++c) {
+        if (censored != nullptr && !censored->empty() && (*censored)[size_t(k) * 3 + c]) continue;
         for (int m = 0; m < m_count; ++m) {
           double s = 0;
           for (int b = 0; b < b_count; ++b) s += state->coefficients[m * b_count + b][c] * resp[b * 3 + c];
@@ -428,8 +431,10 @@ void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t
 
 void SolveMaterials(const ObservationSet& observations, const std::vector<uint32_t>& train,
                     const std::vector<float>& responses, ReflectanceState* state,
-                    const std::vector<float>* robust) {
+                    const std::vector<float>* robust, const std::vector<uint8_t>* censored) {
   RELIGHT_CHECK(robust == nullptr || robust->size() == train.size()) << "one robust weight per observation";
+  RELIGHT_CHECK(censored == nullptr || censored->empty() || censored->size() == 3 * train.size())
+      << "one censoring flag per observation and channel";
   const int m_count = state->num_materials, b_count = state->num_lobes();
   const int dim = m_count * b_count;
   for (int c = 0; c < 3; ++c) {
@@ -442,6 +447,7 @@ void SolveMaterials(const ObservationSet& observations, const std::vector<uint32
       Acc& a = acc.local();
       Eigen::VectorXd phi(dim);
       for (size_t k = r.begin(); k < r.end(); ++k) {
+        if (censored != nullptr && !censored->empty() && (*censored)[k * 3 + c]) continue;
         const Observation& ob = observations.records[train[k]];
         const double alpha = robust != nullptr ? double(ob.confidence) * (*robust)[k] : double(ob.confidence);
         const float* w = state->weights.data() + size_t(ob.vertex) * m_count;
@@ -510,6 +516,31 @@ void FillUnobservedWeights(const TriangleMesh& mesh, const std::vector<char>& ob
   }
 }
 
+std::vector<uint8_t> MetLowerBounds(const ObservationSet& observations, const std::vector<uint32_t>& ids,
+                                    const std::vector<float>& responses, const ReflectanceState& state) {
+  std::vector<uint8_t> met;
+  bool any = false;
+  for (uint32_t o : ids) any |= observations.records[o].lower_bound();
+  if (!any) return met;
+  met.assign(ids.size() * 3, 0);
+  const int b_count = state.num_lobes();
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, ids.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    std::vector<float> rho(b_count * 3);
+    for (size_t k = r.begin(); k < r.end(); ++k) {
+      const Observation& ob = observations.records[ids[k]];
+      if (!ob.lower_bound()) continue;
+      state.VertexLobeWeights(ob.vertex, rho.data());
+      const float* resp = responses.data() + k * b_count * 3;
+      for (int c = 0; c < 3; ++c) {
+        float pred = 0;
+        for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * resp[b * 3 + c];
+        met[k * 3 + c] = pred >= ob.rgb[c];
+      }
+    }
+  });
+  return met;
+}
+
 void ResidualStats(const ObservationSet& observations, const std::vector<uint32_t>& ids,
                    const std::vector<float>& responses, const ReflectanceState& state, double* sse, double* weight,
                    const std::vector<float>* robust) {
@@ -530,7 +561,7 @@ void ResidualStats(const ObservationSet& observations, const std::vector<uint32_
       for (int c = 0; c < 3; ++c) {
         double pred = 0;
         for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * resp[b * 3 + c];
-        const double e = ob.rgb[c] - pred;
+        const double e = CensoredResidual(ob, c, static_cast<float>(pred));
         a.sse += alpha * e * e;
       }
       a.w += 3 * alpha;

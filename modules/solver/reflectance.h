@@ -12,6 +12,7 @@
 // (ReflectanceRobustWeights), as the lighting step does per photo.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -49,7 +50,7 @@ ReflectanceState InitializeReflectanceFromFits(const ObservationSet& observation
 
 // Robust IRLS weights r_k of the observations train[k] under the current model
 // (`responses` as from ComputeLobeResponses over `train`): RobustWeights of the
-// RGB residual magnitudes |y − ŷ|, with the robust sigma (1.4826 × MAD) of each
+// RGB residual magnitudes |y − ŷ| (censored for lower bounds), with the robust sigma (1.4826 × MAD) of each
 // photo's residuals. All 1 for loss "none".
 std::vector<float> ReflectanceRobustWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
                                             const std::vector<float>& responses, const ReflectanceState& state,
@@ -57,6 +58,8 @@ std::vector<float> ReflectanceRobustWeights(const ObservationSet& observations, 
 
 // `robust` (optional, below): per-position weights r_k multiplying the
 // confidence of train[k] (ReflectanceRobustWeights); nullptr: all 1.
+// `censored` (optional, below): MetLowerBounds over `train`; flagged channels
+// are left out; nullptr or empty: none.
 
 // Weights step; `responses` as from ComputeLobeResponses over `train`. With
 // `smoothness` > 0 each vertex's weights are also pulled towards its mesh
@@ -65,7 +68,7 @@ std::vector<float> ReflectanceRobustWeights(const ObservationSet& observations, 
 void SolveWeights(const ObservationSet& observations, const std::vector<uint32_t>& train,
                   const std::vector<float>& responses, double sparsity, ReflectanceState* state,
                   const std::vector<std::vector<uint32_t>>* neighbours = nullptr, double smoothness = 0.0,
-                  const std::vector<float>* robust = nullptr);
+                  const std::vector<float>* robust = nullptr, const std::vector<uint8_t>* censored = nullptr);
 
 // Vertex adjacency of a mesh (each neighbour once).
 std::vector<std::vector<uint32_t>> VertexNeighbours(const TriangleMesh& mesh);
@@ -73,13 +76,25 @@ std::vector<std::vector<uint32_t>> VertexNeighbours(const TriangleMesh& mesh);
 // Materials step.
 void SolveMaterials(const ObservationSet& observations, const std::vector<uint32_t>& train,
                     const std::vector<float>& responses, ReflectanceState* state,
-                    const std::vector<float>* robust = nullptr);
+                    const std::vector<float>* robust = nullptr, const std::vector<uint8_t>* censored = nullptr);
 
 // Weights of vertices without observations, by averaging over mesh neighbours (repeated diffusion).
 void FillUnobservedWeights(const TriangleMesh& mesh, const std::vector<char>& observed, ReflectanceState* state);
 
+// Lower bounds (kObservationLowerBound: clipped highlights) contribute the
+// censored max(0, y − ŷ)². The reflectance steps treat them by active sets:
+// a bound that the current model meets (ŷ ≥ y) is left out of the next
+// solve, one that it misses enters as an ordinary observation. A fixed point
+// is a minimiser of the censored objective (the left-out terms have zero
+// value and gradient). Returns, per position k of `ids` and channel c, 1 at
+// [3k + c] where a lower bound is met under the current model; empty when
+// `ids` holds no lower bound.
+std::vector<uint8_t> MetLowerBounds(const ObservationSet& observations, const std::vector<uint32_t>& ids,
+                                    const std::vector<float>& responses, const ReflectanceState& state);
+
 // Weighted sum of squared residuals Σ α r (y − ŷ)² and the weight sum Σ 3 α r over `ids`
-// (r: `robust` per position in `ids`, or 1).
+// (r: `robust` per position in `ids`, or 1); lower bounds add their censored residual
+// (0 where ŷ ≥ y, CensoredResidual).
 void ResidualStats(const ObservationSet& observations, const std::vector<uint32_t>& ids,
                    const std::vector<float>& responses, const ReflectanceState& state, double* sse, double* weight,
                    const std::vector<float>* robust = nullptr);
