@@ -359,7 +359,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
             transport.bytes() / 1048576.0, summary.transport_seconds);
 
   // Held-out and training observations; per-photo lighting subsets.
-  SolveContext ctx{problem, o, known, transport, {}, {}, {}, {}, {}};
+  SolveContext ctx{problem, o, known, transport, {}, {}, {}, {}, {}, {}};
   std::mt19937_64 rng(static_cast<uint64_t>(o.seed));
   std::uniform_real_distribution<double> uniform(0, 1);
   for (size_t k = 0; k < obs.records.size(); ++k) {
@@ -479,6 +479,36 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   summary.best_iteration = final_result.best_iteration;
   summary.stop_reason = final_result.stop_reason;
   if (summary.chosen_model.empty()) summary.chosen_model = DescribeSpec(spec, basis, o.env_resolution);
+  if (summary.lower_bounds > 0) {
+    // How the final model meets the lower bounds (training ones): the share of bound channels it
+    // stays more than 1% below (active bounds end at equality, up to the solver's tolerance), and
+    // by how much on average, relative to the bound.
+    const std::vector<float> responses = ComputeLobeResponses(transport, obs, ctx.train, result.lighting);
+    const std::vector<uint8_t> met = MetLowerBounds(obs, ctx.train, responses, result.reflectance);
+    size_t bounds = 0, missed = 0;
+    double shortfall = 0;
+    std::vector<float> rho(result.reflectance.num_lobes() * 3);
+    const int b_count = result.reflectance.num_lobes();
+    for (size_t k = 0; k < ctx.train.size(); ++k) {
+      const Observation& ob = obs.records[ctx.train[k]];
+      if (!ob.lower_bound()) continue;
+      result.reflectance.VertexLobeWeights(ob.vertex, rho.data());
+      for (int c = 0; c < 3; ++c) {
+        ++bounds;
+        if (met[k * 3 + c] || ob.rgb[c] <= 0) continue;
+        double pred = 0;
+        for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * responses[(k * b_count + b) * 3 + c];
+        if (pred >= 0.99 * ob.rgb[c]) continue;
+        ++missed;
+        shortfall += (ob.rgb[c] - pred) / ob.rgb[c];
+      }
+    }
+    summary.lower_bounds_missed = bounds > 0 ? double(missed) / bounds : 0.0;
+    summary.lower_bounds_mean_shortfall = missed > 0 ? shortfall / missed : 0.0;
+    RLOG_INFO("lower bounds: the model stays more than 1% below {:.1f}% of them (bound channels), by {:.1f}% on "
+              "average",
+              100 * summary.lower_bounds_missed, 100 * summary.lower_bounds_mean_shortfall);
+  }
   FillUnobservedWeights(problem.mesh, ctx.observed, &result.reflectance);
   summary.seconds = total.Seconds();
   return result;
@@ -620,6 +650,10 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   j["train_observations"] = s.train_observations;
   j["holdout_observations"] = s.holdout_observations;
   j["lower_bounds"] = s.lower_bounds;
+  if (s.lower_bounds > 0) {
+    j["lower_bounds_missed"] = s.lower_bounds_missed;
+    j["lower_bounds_mean_shortfall"] = s.lower_bounds_mean_shortfall;
+  }
   j["transport_seconds"] = s.transport_seconds;
   j["transport_mean_coefficients_per_row"] = s.transport_mean_coefficients_per_row;
   Json iters = Json::array();

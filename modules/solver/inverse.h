@@ -72,6 +72,8 @@ struct InverseSummary {
   size_t train_observations = 0;
   size_t holdout_observations = 0;
   size_t lower_bounds = 0;  // observations that are lower bounds (clipped footprints), train and held out
+  double lower_bounds_missed = 0;          // share of training bound channels the final model stays >1% below
+  double lower_bounds_mean_shortfall = 0;  // over those, mean (y − ŷ) / y
   std::string stop_reason;
   std::vector<ModelCandidate> candidates;  // model selection: every model tried
   std::string chosen_model;                // the model of the final solve

@@ -214,6 +214,7 @@ struct ClipCase {
   double lighting_error = 0;
   double albedo_psnr = 0;
   double gloss_ratio = 0;
+  double bounds_missed = 0;  // known reflectance: share of bound channels the recovered lighting stays below
 };
 
 TEST_F(SolverTest, ClippedHighlightsAsLowerBoundsAreNotBiased) {
@@ -255,7 +256,9 @@ TEST_F(SolverTest, ClippedHighlightsAsLowerBoundsAreNotBiased) {
     InverseOptions o = BaseOptions(basis);
     o.holdout_fraction = 0;
     o.fixed_reflectance = true;
-    out.lighting_error = LightingRelativeError(s, SolveInverse(s.problem, o, &s.truth).lighting);
+    const InverseResult lr = SolveInverse(s.problem, o, &s.truth);
+    out.lighting_error = LightingRelativeError(s, lr.lighting);
+    out.bounds_missed = lr.summary.lower_bounds_missed;
     o.fixed_reflectance = false;
     o.fixed_lighting = true;
     o.max_iterations = 4;
@@ -280,7 +283,7 @@ TEST_F(SolverTest, ClippedHighlightsAsLowerBoundsAreNotBiased) {
   auto report = [](const std::string& scene, const std::vector<std::pair<std::string, ClipCase>>& cases) {
     for (const auto& [name, c] : cases)
       std::cerr << scene << ", " << name << ": map error " << c.lighting_error << ", albedo " << c.albedo_psnr
-                << " dB, gloss ratio " << c.gloss_ratio << "\n";
+                << " dB, gloss ratio " << c.gloss_ratio << ", bounds missed " << c.bounds_missed << "\n";
   };
 
   // Exact data, the brightest 10% clipped.
@@ -293,6 +296,8 @@ TEST_F(SolverTest, ClippedHighlightsAsLowerBoundsAreNotBiased) {
   EXPECT_LT(bounded.lighting_error, dropped.lighting_error + 0.005);
   EXPECT_GT(bounded.albedo_psnr, 38.0);
   EXPECT_NEAR(bounded.gloss_ratio, 1.0, 0.02);
+  EXPECT_LT(bounded.bounds_missed, 0.05);  // the recovered lighting meets the bounds (solve_summary.json)
+  EXPECT_EQ(dropped.bounds_missed, 0.0);
 
   // 5% noise, the brightest quarter clipped: the bounds carry evidence that dropping loses.
   const Scene noisy = with_noise(0.05);
