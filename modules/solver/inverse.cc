@@ -484,7 +484,6 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
     // stays more than 1% below (active bounds end at equality, up to the solver's tolerance), and
     // by how much on average, relative to the bound.
     const std::vector<float> responses = ComputeLobeResponses(transport, obs, ctx.train, result.lighting);
-    const std::vector<uint8_t> met = MetLowerBounds(obs, ctx.train, responses, result.reflectance);
     size_t bounds = 0, missed = 0;
     double shortfall = 0;
     std::vector<float> rho(result.reflectance.num_lobes() * 3);
@@ -495,7 +494,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
       result.reflectance.VertexLobeWeights(ob.vertex, rho.data());
       for (int c = 0; c < 3; ++c) {
         ++bounds;
-        if (met[k * 3 + c] || ob.rgb[c] <= 0) continue;
+        if (ob.rgb[c] <= 0) continue;
         double pred = 0;
         for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * responses[(k * b_count + b) * 3 + c];
         if (pred >= 0.99 * ob.rgb[c]) continue;
