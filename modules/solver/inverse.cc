@@ -390,10 +390,13 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   spec.materials = known != nullptr && known->has_reflectance ? known->reflectance.num_materials : o.materials;
   spec.max_iterations = o.max_iterations;
   spec.coarse_iterations = o.coarse_iterations;
-  const bool can_select = o.select_model && !o.fixed_lighting && !o.fixed_reflectance && !o.start_from_truth &&
-                          !ctx.holdout.empty();
+  // With known lighting only the reflectance model (materials, lobes) is selected.
+  const bool can_select =
+      o.select_model && !o.fixed_reflectance && !o.start_from_truth && !ctx.holdout.empty();
   if (o.select_model && !can_select) {
-    RLOG_WARN("inverse.select_model needs held-out observations and nothing fixed; solving the configured model");
+    RLOG_WARN(
+        "inverse.select_model needs held-out observations and a reflectance to solve (not fixed_reflectance or "
+        "start_from_truth); solving the configured model");
   }
   if (can_select) {
     // Model selection by held-out error: candidates share the transport rows;
@@ -454,7 +457,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
       }
     }
     // 3. Environment-map resolution (Haar): coarser maps when the photos do not support detail.
-    if (o.lighting_basis == "haar") {
+    if (o.lighting_basis == "haar" && !o.fixed_lighting) {
       std::vector<ModelSpec> by_resolution;
       for (int res = std::max(8, o.env_resolution / 4); res < o.env_resolution; res *= 2) {
         ModelSpec c = spec;

@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 3};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 4};
 
 struct InverseOptions {
   // Lighting representation.
@@ -25,7 +25,7 @@ struct InverseOptions {
 
   // Reflectance model.
   std::vector<std::string> basis = {"lambertian", "ggx:0.1", "ggx:0.3", "phong:50", "phong:500"};
-  int materials = 3;                    // materials (k-means regions at initialisation)
+  int materials = 6;                    // materials (k-means regions at initialisation)
   std::string init = "colour";          // colour (k-means on mean colours, the paper) or vertex_fits
   double sparsity = 1e-3;               // penalty on the sum of per-vertex weights (favours few materials)
   double weight_smoothness = 0.05;      // pull of a vertex's weights towards its neighbours'
@@ -41,7 +41,7 @@ struct InverseOptions {
   int coarse_iterations = 3;            // first iterations solve lighting at half resolution (haar)
 
   // Alternation.
-  int max_iterations = 6;               // outer lighting/reflectance iterations
+  int max_iterations = 12;              // outer lighting/reflectance iterations
   double tolerance = 2e-3;              // stop when the training objective changes less than this (relative)
   double time_budget_s = 0;             // stop after this much time (0: no limit)
   int material_iterations = 2;          // materials/weights alternations per reflectance step
@@ -80,7 +80,11 @@ struct InverseOptions {
     t->Add("basis", &basis,
            "Basis BRDFs: lambertian, ggx:ALPHA[:F0], cook_torrance:ALPHA[:F0], phong:EXPONENT. "
            "The first Lambertian lobe carries the albedo.");
-    t->Add("materials", &materials, "Number of materials (k-means regions at initialisation).").Range(1, 32);
+    t->Add("materials", &materials,
+           "Number of materials (k-means regions at initialisation). The default 6 is the paper's Minerva model; "
+           "blends of more materials than the scene's true ones fit the synthetic scenes better (docs/RESULTS.md). "
+           "select_model chooses fewer when the held-out observations do not support them.")
+        .Range(1, 32);
     t->Add("init", &init,
            "How materials start: colour (k-means on hue and saturation of the vertices' mean colours, each region's "
            "median colour as its diffuse colour; the paper) or vertex_fits (once the first lighting is known, k-means "
@@ -122,7 +126,10 @@ struct InverseOptions {
            "The first iterations solve the lighting at half resolution (Haar coarse levels only; 8x cheaper), "
            "then at full resolution.")
         .Range(0, 100);
-    t->Add("max_iterations", &max_iterations, "Outer lighting/reflectance iterations.").Range(1, 100);
+    t->Add("max_iterations", &max_iterations,
+           "Outer lighting/reflectance iterations (at most; tolerance and time_budget_s stop earlier). On the "
+           "synthetic bunnies the held-out error still falls after 6 (docs/RESULTS.md).")
+        .Range(1, 100);
     t->Add("tolerance", &tolerance, "Stop when the training objective changes by less than this (relative).")
         .Range(0, 1);
     t->Add("time_budget_s", &time_budget_s, "Stop the alternation after this many seconds (0: no limit).").Min(0);
@@ -142,7 +149,8 @@ struct InverseOptions {
     t->Add("select_model", &select_model,
            "Choose the number of materials (up to inverse.materials), the basis lobes (a subset of inverse.basis) and "
            "the map resolution (up to inverse.env_resolution) by held-out error; every candidate is reported in "
-           "solve_summary.json. Costs about selection_iterations iterations per candidate.");
+           "solve_summary.json. Costs about selection_iterations iterations per candidate. With fixed_lighting "
+           "only the materials and lobes are chosen.");
     t->Add("selection_iterations", &selection_iterations, "Alternation iterations per candidate model.").Range(2, 50);
     t->Add("selection_tolerance", &selection_tolerance,
            "Model selection keeps the simplest model whose held-out error is within this fraction of the best.")
