@@ -49,7 +49,7 @@ ObservationSet ReadObservations(const std::string& path) {
   };
   uint32_t version;
   get(&version, 4);
-  if (version != kObservationsVersion && version != 1) {
+  if (version < 1 || version > kObservationsVersion) {
     damaged("version " + std::to_string(version) + ", this build reads 1 to " + std::to_string(kObservationsVersion));
   }
   ObservationSet set;
@@ -67,7 +67,11 @@ ObservationSet ReadObservations(const std::string& path) {
     get(&o.confidence, 4);
     get(o.view_local, 12);
     if (version >= 2) get(&o.flags, 4);
-    if (o.flags & ~kObservationLowerBound) damaged("unknown flags");
+    if (o.flags & ~(kObservationLowerBound | kObservationBoundChannels)) damaged("unknown flags");
+    if (version < 3 && (o.flags & kObservationBoundChannels)) damaged("per-channel flags in a version 2 file");
+    if ((o.flags & kObservationBoundChannels) && !(o.flags & kObservationLowerBound)) {
+      damaged("bound channels without the lower-bound flag");
+    }
     if (o.photo >= set.num_photos || o.vertex >= set.num_vertices) damaged("index out of range");
   }
   return set;

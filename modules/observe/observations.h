@@ -18,23 +18,33 @@ struct Observation {
   float rgb[3] = {0, 0, 0};         // linear radiance
   float confidence = 0;             // alpha_y in [0, 1]
   float view_local[3] = {0, 0, 1};  // unit direction to the camera, vertex's local frame (sphere/frame.h)
-  uint32_t flags = 0;               // kObservationLowerBound, …
+  uint32_t flags = 0;               // kObservationLowerBound, kObservationBoundChannels
 
-  bool lower_bound() const;
+  bool lower_bound() const;       // some channel is a lower bound
+  bool lower_bound(int c) const;  // channel c is a lower bound
 };
 
 // The footprint held clipped pixels: `rgb` (the mean over all its pixels,
 // clipped ones at their clipped value) is a lower bound of the true radiance,
-// not an estimate. Solvers enforce it only while their prediction falls below
-// (a censored, one-sided residual).
+// not an estimate, in the channels that clipped. Solvers enforce it only while
+// their prediction falls below (a censored, one-sided residual).
 inline constexpr uint32_t kObservationLowerBound = 1u;
+// Which channels are bounds: bit 1 + c for channel c. With kObservationLowerBound
+// and none of these bits, all three are (files written before per-channel flags,
+// and footprints distrusted for another reason than over-exposure). The other
+// channels of a flagged observation are ordinary measurements.
+inline constexpr uint32_t kObservationBoundChannels = 7u << 1;
+inline constexpr uint32_t ObservationBoundChannel(int c) { return 2u << c; }
 
 inline bool Observation::lower_bound() const { return (flags & kObservationLowerBound) != 0; }
+inline bool Observation::lower_bound(int c) const {
+  return lower_bound() && ((flags & kObservationBoundChannels) == 0 || (flags & ObservationBoundChannel(c)) != 0);
+}
 
 // y − ŷ of channel c, censored for lower bounds: 0 where the prediction is at or above the bound.
 inline float CensoredResidual(const Observation& ob, int c, float predicted) {
   const float e = ob.rgb[c] - predicted;
-  return ob.lower_bound() && e < 0 ? 0.0f : e;
+  return ob.lower_bound(c) && e < 0 ? 0.0f : e;
 }
 
 struct ObservationSet {
@@ -55,7 +65,7 @@ struct ObservedPhoto {
 };
 
 inline constexpr char kObservationsMagic[8] = {'R', 'L', 'O', 'B', 'S', 0, 0, 0};
-inline constexpr uint32_t kObservationsVersion = 2;  // 2 added `flags`; version 1 files are still read
+inline constexpr uint32_t kObservationsVersion = 3;  // 2 added `flags`, 3 per-channel bounds; 1 and 2 still read
 
 // Writes atomically. Throws UserError naming the file on I/O failure.
 void WriteObservations(const std::string& path, const ObservationSet& set);

@@ -87,8 +87,10 @@ struct Pyramid {
   std::vector<Image> weighted;    // RGB, radiance × confidence
   std::vector<Image> confidence;  // 1 channel
   std::vector<Image> plain;       // RGB, radiance (clipped pixels at their clipped value); empty unless kept
+  std::vector<Image> over;        // RGB, 1 where the channel is over-exposed; empty unless kept and known
 
-  Pyramid(const Image& radiance, const Image& conf, bool keep_plain, int max_levels = 6) {
+  Pyramid(const Image& radiance, const Image& conf, bool keep_plain, double overexposed_linear,
+          int max_levels = 6) {
     Image w(radiance.width, radiance.height, 3);
     for (int y = 0; y < radiance.height; ++y)
       for (int x = 0; x < radiance.width; ++x)
@@ -96,11 +98,19 @@ struct Pyramid {
     weighted.push_back(std::move(w));
     confidence.push_back(conf);
     if (keep_plain) plain.push_back(radiance);
+    if (keep_plain && std::isfinite(overexposed_linear)) {
+      // 1e-5: float rounding of the stored linear values (an 8-bit step is far wider).
+      const float level = static_cast<float>(overexposed_linear * (1.0 - 1e-5));
+      Image o(radiance.width, radiance.height, 3);
+      for (size_t k = 0; k < o.pixels.size(); ++k) o.pixels[k] = radiance.pixels[k] >= level ? 1.0f : 0.0f;
+      over.push_back(std::move(o));
+    }
     while (static_cast<int>(weighted.size()) < max_levels && weighted.back().width >= 8 &&
            weighted.back().height >= 8) {
       weighted.push_back(Half(weighted.back()));
       confidence.push_back(Half(confidence.back()));
-      if (keep_plain) plain.push_back(Half(plain.back()));
+      if (!plain.empty()) plain.push_back(Half(plain.back()));
+      if (!over.empty()) over.push_back(Half(over.back()));
     }
   }
   static Image Half(const Image& in) {
@@ -115,16 +125,19 @@ struct Pyramid {
 
   // Confidence-weighted mean colour over a disc of `radius_px` (level-0 pixels)
   // around `center_px`; returns the mean confidence over the disc. With
-  // `plain_rgb`, also the unweighted mean over the same taps.
-  double Sample(const Eigen::Vector2d& center_px, double radius_px, float rgb[3], float* plain_rgb = nullptr) const {
+  // `plain_rgb`, also the unweighted mean over the same taps, and with
+  // `over_share` each channel's share of over-exposed pixels (-1 when unknown).
+  double Sample(const Eigen::Vector2d& center_px, double radius_px, float rgb[3], float* plain_rgb = nullptr,
+                float* over_share = nullptr) const {
     int level = 0;
     while (level + 1 < static_cast<int>(weighted.size()) && radius_px / (1 << (level + 1)) >= 1.5) ++level;
     const double s = 1.0 / (1 << level);
     const double r = radius_px * s;
     const int k = std::clamp(static_cast<int>(std::ceil(r)), 1, 3);
-    double sum_w[3] = {0, 0, 0}, sum_p[3] = {0, 0, 0}, sum_c = 0;
+    double sum_w[3] = {0, 0, 0}, sum_p[3] = {0, 0, 0}, sum_o[3] = {0, 0, 0}, sum_c = 0;
     int n = 0;
     const bool with_plain = plain_rgb != nullptr && !plain.empty();
+    const bool with_over = over_share != nullptr && !over.empty();
     for (int j = -k; j <= k; ++j) {
       for (int i = -k; i <= k; ++i) {
         const double dx = r * i / k, dy = r * j / k;
@@ -139,12 +152,19 @@ struct Pyramid {
           SampleBilinear(plain[level], x, y, p);
           for (int q = 0; q < 3; ++q) sum_p[q] += p[q];
         }
+        if (with_over) {
+          float p[3];
+          SampleBilinear(over[level], x, y, p);
+          for (int q = 0; q < 3; ++q) sum_o[q] += p[q];
+        }
         sum_c += c;
         ++n;
       }
     }
     if (with_plain)
       for (int q = 0; q < 3; ++q) plain_rgb[q] = static_cast<float>(sum_p[q] / std::max(1, n));
+    if (over_share != nullptr)
+      for (int q = 0; q < 3; ++q) over_share[q] = with_over ? static_cast<float>(sum_o[q] / std::max(1, n)) : -1.0f;
     if (sum_c <= 1e-9) return 0.0;
     for (int q = 0; q < 3; ++q) rgb[q] = static_cast<float>(sum_w[q] / sum_c);
     return sum_c / n;
@@ -166,7 +186,9 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
   const Image depth = RenderDepthMap(caster, photo.camera, photo.pose);
   const Image edge_distance = DepthEdgeDistance(depth, o.depth_edge_jump);
   const bool lower_bounds = o.clipped_footprints == "lower_bound";
-  const Pyramid pyramid(*photo.radiance, *photo.confidence, lower_bounds);
+  const Pyramid pyramid(*photo.radiance, *photo.confidence, lower_bounds,
+                        o.bound_channels == "clipped" ? photo.overexposed_linear
+                                                      : std::numeric_limits<double>::infinity());
   const Eigen::Vector3d center = photo.pose.ProjectionCenter();
   const double edge_tolerance = 0.5 * mesh.MeanEdgeLength();
   const double cos_zero = std::cos(o.grazing_min_deg * M_PI / 180.0);
@@ -204,8 +226,8 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
         o.edge_margin_px > 0 ? Ramp(edge_distance.at(ix, iy) - radius_px, 0.0, o.edge_margin_px) : 1.0;
     if (edge_factor <= 0) return;
     Observation obs;
-    float plain_rgb[3] = {0, 0, 0};
-    const double pixel_confidence = pyramid.Sample(px, radius_px, obs.rgb, plain_rgb);
+    float plain_rgb[3] = {0, 0, 0}, over_share[3] = {-1, -1, -1};
+    const double pixel_confidence = pyramid.Sample(px, radius_px, obs.rgb, plain_rgb, over_share);
     const double angle_deg = std::acos(std::min(1.0, cos_view)) * 180.0 / M_PI;
     const double geometric_confidence = Ramp(angle_deg, o.grazing_min_deg, o.grazing_full_deg) * edge_factor;
     double confidence = pixel_confidence * geometric_confidence;
@@ -214,9 +236,15 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
       if (geometric_confidence < o.min_confidence || geometric_confidence <= 0) return;
       clipped.fetch_add(1, std::memory_order_relaxed);
       if (!lower_bounds) return;
-      // Every pixel at its value, clipped ones at the clip level: at most the true mean.
+      // Every pixel at its value, clipped ones at the clip level: at most the true mean in the
+      // channels that clipped. With bound_channels = clipped, a channel with no over-exposed pixel
+      // in the footprint measures its mean. When no channel clipped (black-clipped or next to a
+      // clipped pixel) or which did is unknown, all three are bounds.
       for (int c = 0; c < 3; ++c) obs.rgb[c] = plain_rgb[c];
-      obs.flags = kObservationLowerBound;
+      uint32_t channels = 0;
+      for (int c = 0; c < 3; ++c)
+        if (over_share[c] > 1e-6f) channels |= ObservationBoundChannel(c);
+      obs.flags = kObservationLowerBound | (channels == kObservationBoundChannels ? 0u : channels);
       confidence = geometric_confidence;
     } else if (confidence < o.min_confidence || confidence <= 0) {
       return;
@@ -302,6 +330,14 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
     } else {
       const Image confidence = ReadImage(JoinPath(linearize_dir, "confidence/" + stem + ".exr"));
       PhotoView view{p.camera, im, &radiance, &confidence};
+      // Which channels clipped (linearize stats; absent before linearize version 2: all are bounds).
+      const std::string stats_path = JoinPath(linearize_dir, "stats/" + stem + ".json");
+      if (fs::exists(stats_path)) {
+        const Json stats = ReadJsonFile(stats_path);
+        if (stats.contains("overexposed_linear") && stats["overexposed_linear"].is_number()) {
+          view.overexposed_linear = stats["overexposed_linear"].get<double>();
+        }
+      }
       size_t clipped = 0;
       per_photo[i] = ObservePhoto(mesh, footprint, caster, view, p.index, options, &clipped);
       clipped_per_photo[i] = static_cast<int64_t>(clipped);
@@ -329,6 +365,7 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
       if (o.lower_bound()) {
         ++lower_bounds_per_photo[i];
         ++summary.lower_bounds;
+        for (int c = 0; c < 3; ++c) summary.lower_bound_channels += o.lower_bound(c);
       } else {
         ++per_vertex[o.vertex];
       }
@@ -345,6 +382,7 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
   coverage["unobserved_vertices"] = summary.unobserved_vertices;
   coverage["clipped_footprints"] = summary.clipped_footprints;
   coverage["lower_bounds"] = summary.lower_bounds;
+  coverage["lower_bound_channels"] = summary.lower_bound_channels;
   std::map<int, int> histogram;
   for (int c : per_vertex) ++histogram[std::min(c, 20)];
   Json hist = Json::object();
@@ -367,9 +405,10 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
   coverage["seconds"] = summary.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "coverage.json"), coverage);
   RLOG_INFO("{} observations of {} vertices in {} photos ({} vertices unobserved; {} footprints with clipped pixels, "
-            "{} of them kept as lower bounds) in {:.1f} s",
+            "{} of them kept as lower bounds in {} of their {} channels) in {:.1f} s",
             summary.observations, mesh.num_vertices(), summary.photos, summary.unobserved_vertices,
-            summary.clipped_footprints, summary.lower_bounds, summary.seconds);
+            summary.clipped_footprints, summary.lower_bounds, summary.lower_bound_channels, 3 * summary.lower_bounds,
+            summary.seconds);
   if (summary.unobserved_vertices > mesh.num_vertices() / 2) {
     RLOG_WARN("more than half of the vertices are seen in no photo; is the mesh in the SfM frame?");
   }

@@ -14,6 +14,7 @@
 // and a ramp on the distance to silhouettes and depth discontinuities.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,10 @@ struct PhotoView {
   ImageRecord pose;
   const Image* radiance = nullptr;    // linear RGB
   const Image* confidence = nullptr;  // 1 channel
+  // Linear value at and above which a channel of `radiance` was over-exposed
+  // (linearize stats); infinity when unknown: then every channel of a clipped
+  // footprint is a bound.
+  double overexposed_linear = std::numeric_limits<double>::infinity();
 };
 
 // Observations of the mesh's vertices (normals required) in one photo;
@@ -61,6 +66,7 @@ struct ObserveSummary {
   size_t unobserved_vertices = 0;  // vertices with no exact observation (lower bounds do not count)
   size_t clipped_footprints = 0;   // footprints over max_distrusted_share (photos observed in this run)
   size_t lower_bounds = 0;         // of those, kept as lower bounds (all photos)
+  size_t lower_bound_channels = 0; // their channels that are bounds (the others measure)
   double seconds = 0;
 };
 

@@ -11,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kObserveStage{
-    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 4};
+    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 5};
 
 struct ObserveOptions {
   double grazing_min_deg = 80.0;      // View angles beyond this (from the normal) get confidence 0.
@@ -24,6 +24,7 @@ struct ObserveOptions {
   double border_margin_px = 2.0;      // Projections closer than this to the image border are dropped.
   double max_distrusted_share = 0.25;  // Footprints with a larger share of distrusted (clipped) pixels give no mean.
   std::string clipped_footprints = "lower_bound";  // What such footprints give: lower_bound or drop.
+  std::string bound_channels = "clipped";  // Which channels of a lower bound are bounds: clipped or all.
 
   void Declare(OptionTable* t) {
     t->Add("grazing_min_deg", &grazing_min_deg,
@@ -61,6 +62,12 @@ struct ObserveOptions {
            "it only while its prediction falls below (a censored residual), so clipped highlights still say that "
            "the surface is at least this bright there. drop: nothing (observe stage version 3).")
         .Choices({"lower_bound", "drop"});
+    t->Add("bound_channels", &bound_channels,
+           "Which channels of a lower bound are bounds. clipped: only those with an over-exposed pixel in the "
+           "footprint (linearize stats overexposed_linear); the others are ordinary measurements of the same mean "
+           "(observe stage version 5). all: every channel, since a pixel is distrusted when one channel clips "
+           "(version 4). docs/RESULTS.md measures both.")
+        .Choices({"clipped", "all"});
   }
   void Check() const {
     if (grazing_full_deg >= grazing_min_deg) {

@@ -383,6 +383,71 @@ TEST_F(ObserveTest, ClippedFootprintsBecomeLowerBoundsOfTheTruth) {
   for (const Observation& d : dropped) EXPECT_FALSE(d.lower_bound());
 }
 
+// A highlight over-exposed in red only (a warm light on a glaze): linearize
+// distrusts the whole pixel, but green and blue hold their true values. With
+// observe.bound_channels = clipped (the default) and the photo's over-exposure level known,
+// only red becomes a bound; green and blue of the same footprints are
+// measurements of the true mean. Without the level (older linearize stats), or
+// with bound_channels = all, all three channels are bounds.
+TEST_F(ObserveTest, OnlyTheChannelsThatClippedBecomeBounds) {
+  const TriangleMesh grid = Grid(21);
+  const RayCaster caster({&grid});
+  Image truth = AffineImage(160, 120);
+  Image radiance = truth;
+  Image confidence(160, 120, 1, 1.0f);
+  const Image full(160, 120, 1, 1.0f);
+  const float clip_level = 1.0f;
+  for (int y = 40; y < 80; ++y)
+    for (int x = 70; x < 90; ++x) {
+      confidence.at(x, y) = 0.0f;
+      truth.at(x, y, 0) = 3.0f;  // red: true radiance 3, recorded at the clip level
+      radiance.at(x, y, 0) = clip_level;
+      truth.at(x, y, 1) = radiance.at(x, y, 1) = 0.6f;  // green and blue: below the clip level
+      truth.at(x, y, 2) = radiance.at(x, y, 2) = 0.7f;
+    }
+  const ImageRecord pose = LookAt({0.3, -0.2, 3.0});
+  const std::vector<float> radius = VertexFootprintRadius(grid);
+  PhotoView view{camera_, pose, &radiance, &confidence};
+  view.overexposed_linear = clip_level;
+  ObserveOptions o = options_;
+  ASSERT_EQ(o.bound_channels, "clipped");  // the default
+  const auto bounded = ObservePhoto(grid, radius, caster, view, 0, o);
+  o.bound_channels = "all";
+  const auto all = ObservePhoto(grid, radius, caster, view, 0, o);
+  o.bound_channels = "clipped";
+  const auto unknown = ObservePhoto(grid, radius, caster, PhotoView{camera_, pose, &radiance, &confidence}, 0, o);
+  const auto reference = ObservePhoto(grid, radius, caster, PhotoView{camera_, pose, &truth, &full}, 0, options_);
+  std::map<uint32_t, Observation> true_mean;
+  for (const Observation& r : reference) true_mean[r.vertex] = r;
+
+  size_t bounds = 0;
+  for (const Observation& b : bounded) {
+    if (!b.lower_bound()) continue;
+    ++bounds;
+    ASSERT_TRUE(true_mean.count(b.vertex)) << "vertex " << b.vertex;
+    const Observation& t = true_mean[b.vertex];
+    EXPECT_TRUE(b.lower_bound(0)) << "vertex " << b.vertex;
+    EXPECT_FALSE(b.lower_bound(1)) << "vertex " << b.vertex;
+    EXPECT_FALSE(b.lower_bound(2)) << "vertex " << b.vertex;
+    EXPECT_LE(b.rgb[0], t.rgb[0] + 1e-5) << "vertex " << b.vertex;  // red: at most the true mean
+    EXPECT_NEAR(b.rgb[1], t.rgb[1], 1e-5) << "vertex " << b.vertex;  // green, blue: the true mean
+    EXPECT_NEAR(b.rgb[2], t.rgb[2], 1e-5) << "vertex " << b.vertex;
+    // The censored residual: red counts only when the prediction falls short; green counts both ways.
+    EXPECT_EQ(CensoredResidual(b, 0, b.rgb[0] + 1.0f), 0.0f);
+    EXPECT_NE(CensoredResidual(b, 1, b.rgb[1] + 1.0f), 0.0f);
+  }
+  ASSERT_GT(bounds, 0u);
+  for (const auto* set : {&unknown, &all}) {  // the level unknown, or bound_channels = all
+    size_t all_channel_bounds = 0;
+    for (const Observation& b : *set) {
+      if (!b.lower_bound()) continue;
+      ++all_channel_bounds;
+      for (int c = 0; c < 3; ++c) EXPECT_TRUE(b.lower_bound(c)) << "vertex " << b.vertex << " channel " << c;
+    }
+    EXPECT_EQ(all_channel_bounds, bounds);
+  }
+}
+
 TEST_F(ObserveTest, FileRoundTripAndDamage) {
   testing::TempDir dir;
   ObservationSet set;
@@ -411,9 +476,18 @@ TEST_F(ObserveTest, FileRoundTripAndDamage) {
   set.records[1].flags = kObservationLowerBound;
   WriteObservations(dir / "flags.bin", set);
   EXPECT_TRUE(ReadObservations(dir / "flags.bin").records[1].lower_bound());
-  set.records[1].flags = 6;
+  set.records[1].flags = kObservationLowerBound | ObservationBoundChannel(2);  // blue only
+  WriteObservations(dir / "blue.bin", set);
+  const Observation blue = ReadObservations(dir / "blue.bin").records[1];
+  EXPECT_TRUE(blue.lower_bound(2));
+  EXPECT_FALSE(blue.lower_bound(0));
+  EXPECT_FALSE(blue.lower_bound(1));
+  set.records[1].flags = 6;  // channel bits without the lower-bound flag
   WriteObservations(dir / "bad_flags.bin", set);
   EXPECT_THROW(ReadObservations(dir / "bad_flags.bin"), UserError);
+  set.records[1].flags = 16;  // unknown
+  WriteObservations(dir / "unknown_flags.bin", set);
+  EXPECT_THROW(ReadObservations(dir / "unknown_flags.bin"), UserError);
 
   // Version 1 (36-byte records without flags) is still read.
   std::string v1 = bytes.substr(0, 28);

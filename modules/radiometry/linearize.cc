@@ -58,6 +58,10 @@ LinearImage Linearize(const Image& encoded, bool is_float, const LinearizeOption
   }
   const double n = double(encoded.width) * encoded.height;
   out.clipped_fraction = clipped / n;
+  if (!is_float) {
+    const double v = o.saturation_level;
+    out.overexposed_linear = o.transfer == "srgb" ? SrgbToLinear(v) : o.transfer == "gamma" ? std::pow(v, o.gamma) : v;
+  }
   out.black_fraction = black / n;
   // Confidence: 0 on and near clipped pixels (a square dilation of radius clip_dilation_px).
   out.confidence = Image(encoded.width, encoded.height, 1, 1.0f);
@@ -148,6 +152,11 @@ LinearizeSummary RunLinearize(const LinearizeOptions& options, const std::string
     stats["exposure_scale"] = scale[i];
     stats["clipped_fraction"] = lin.clipped_fraction;
     stats["black_fraction"] = lin.black_fraction;
+    if (std::isfinite(lin.overexposed_linear)) {
+      stats["overexposed_linear"] = lin.overexposed_linear * scale[i];
+    } else {
+      stats["overexposed_linear"] = nullptr;
+    }
     WriteJsonAtomic(stats_path, stats);
     if (lin.clipped_fraction > 0.2) {
       RLOG_WARN("photo '{}' is {:.0f}% over-exposed; its clipped pixels are ignored", photo.name,

@@ -5,6 +5,7 @@
 // so a killed run resumes photo by photo.
 #pragma once
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,6 +26,9 @@ struct LinearImage {
   Image confidence;  // 1 channel, in [0, 1]
   double clipped_fraction = 0;  // pixels with an over-exposed channel
   double black_fraction = 0;    // pixels with a black-clipped channel
+  // Linear value at and above which a channel was over-exposed (the transfer
+  // curve at saturation_level); infinity for float inputs, which do not clip.
+  double overexposed_linear = std::numeric_limits<double>::infinity();
 };
 
 // Linearizes `encoded` (values as read from an 8/16-bit file, in [0,1]) or
@@ -45,7 +49,10 @@ struct LinearizeSummary {
 };
 
 // Runs the stage on an ingest output folder; writes linear/, confidence/,
-// stats/ and linearize_summary.json into `output_dir`.
+// stats/ and linearize_summary.json into `output_dir`. A photo's stats hold
+// `overexposed_linear`: the linear radiance (after exposure normalisation) at
+// and above which a channel of linear/ was over-exposed, null for float inputs;
+// `observe` uses it to tell which channels of a clipped footprint clipped.
 LinearizeSummary RunLinearize(const LinearizeOptions& options, const std::string& ingest_dir,
                               const std::string& output_dir);
 

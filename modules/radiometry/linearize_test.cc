@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <random>
 
@@ -39,6 +40,10 @@ TEST(LinearizeTest, ClippedAndBlackPixelsGetZeroConfidence) {
   EXPECT_EQ(lin.confidence.at(7, 7), 0.0f);
   EXPECT_NEAR(lin.clipped_fraction, 0.01, 1e-12);
   EXPECT_NEAR(lin.radiance.at(5, 5, 0), SrgbToLinear(0.5), 1e-6);
+  // The over-exposure level in linear units tells which channel of a distrusted pixel clipped.
+  EXPECT_NEAR(lin.overexposed_linear, SrgbToLinear(o.saturation_level), 1e-12);
+  EXPECT_GE(lin.radiance.at(2, 2, 1), lin.overexposed_linear);
+  EXPECT_LT(lin.radiance.at(2, 2, 0), lin.overexposed_linear);
   // Kept black pixels (linear raw data): their own confidence, no dilation; clipped pixels still win.
   o.black_confidence = 0.5;
   img.at(3, 2, 2) = 0.0f;  // black, beside the saturated pixel
@@ -59,6 +64,7 @@ TEST(LinearizeTest, ClippedAndBlackPixelsGetZeroConfidence) {
   EXPECT_EQ(pass.radiance.at(3, 3, 0), 7.5f);
   EXPECT_EQ(pass.confidence.at(3, 3), 1.0f);
   EXPECT_EQ(pass.confidence.at(1, 1), 0.0f);
+  EXPECT_TRUE(std::isinf(pass.overexposed_linear));  // floats do not clip
 }
 
 TEST(LinearizeTest, ExifExposure) {
@@ -106,6 +112,11 @@ TEST(LinearizeTest, StageWritesOutputsNormalizesExposureAndResumes) {
   // After normalisation both photos agree (16-bit quantisation tolerance) away from the marked rows.
   EXPECT_NEAR(a.at(10, 10, 1), b.at(10, 10, 1), 2e-4);
   EXPECT_NEAR(a.at(10, 10, 1), linear.at(10, 10, 1), 2e-4);
+  // The over-exposure level follows the photo's exposure scale (p1 was scaled by 1/2).
+  const Json stats = ReadJsonFile(dir / "out/stats/p1.json");
+  EXPECT_NEAR(stats["exposure_scale"].get<double>(), 0.5, 1e-12);
+  EXPECT_NEAR(stats["overexposed_linear"].get<double>(), 0.5 * SrgbToLinear(LinearizeOptions{}.saturation_level),
+              1e-12);
 
   // A rerun (as after a killed run) reuses every finished photo.
   fs::remove(dir / "out/linear/p2.exr");

@@ -496,6 +496,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
       if (!ob.lower_bound()) continue;
       result.reflectance.VertexLobeWeights(ob.vertex, rho.data());
       for (int c = 0; c < 3; ++c) {
+        if (!ob.lower_bound(c)) continue;
         ++bounds;
         if (ob.rgb[c] <= 0) continue;
         double pred = 0;

@@ -4,6 +4,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "core/error.h"
@@ -125,7 +126,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
     std::array<RowMatrix, 3> a;
     std::array<Eigen::VectorXf, 3> y;
     Eigen::VectorXd alpha(rows);
-    std::vector<char> lower(rows, 0);  // lower bounds (kObservationLowerBound)
+    std::vector<char> lower(rows * 3, 0);  // lower-bound channels (kObservationLowerBound)
     for (int c = 0; c < 3; ++c) {
       a[c] = RowMatrix::Zero(rows, dim);
       y[c].resize(rows);
@@ -136,7 +137,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
       const Observation& ob = observations.records[o];
       reflectance.VertexLobeWeights(ob.vertex, rho.data());
       alpha[r] = ob.confidence;
-      lower[r] = ob.lower_bound();
+      for (int c = 0; c < 3; ++c) lower[r * 3 + c] = ob.lower_bound(c);
       for (int c = 0; c < 3; ++c) y[c][r] = ob.rgb[c];
       for (int b = 0; b < num_lobes; ++b) {
         const TransportStore::Row row = transport.Get(o, ob.vertex, b);
@@ -160,8 +161,9 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
     }
 
     std::vector<double> robust(rows, 1.0);
-    std::vector<Eigen::Index> exact_rows, bound_rows;
-    for (Eigen::Index r = 0; r < rows; ++r) (lower[r] ? bound_rows : exact_rows).push_back(r);
+    std::array<std::vector<Eigen::Index>, 3> exact_rows, bound_rows;  // per channel
+    for (Eigen::Index r = 0; r < rows; ++r)
+      for (int c = 0; c < 3; ++c) (lower[r * 3 + c] ? bound_rows[c] : exact_rows[c]).push_back(r);
     // Σ w a aᵀ (lower triangle) and Σ w y a over the listed rows of channel c.
     auto accumulate = [&](int c, const std::vector<Eigen::Index>& list, Eigen::MatrixXd* q, Eigen::VectorXd* rhs) {
       RowMatrix aw(static_cast<Eigen::Index>(list.size()), dim);
@@ -196,20 +198,20 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         }
         Eigen::MatrixXd q_exact;
         Eigen::VectorXd rhs_exact;
-        accumulate(c, exact_rows, &q_exact, &rhs_exact);
+        accumulate(c, exact_rows[c], &q_exact, &rhs_exact);
         // λ from the whole system (every row), so it does not move with the active set.
         Eigen::VectorXd diagonal = q_exact.diagonal();
-        for (Eigen::Index r : bound_rows) diagonal += (alpha[r] * robust[r]) * a[c].row(r).cast<double>().cwiseAbs2().transpose();
+        for (Eigen::Index r : bound_rows[c]) diagonal += (alpha[r] * robust[r]) * a[c].row(r).cast<double>().cwiseAbs2().transpose();
         const double diagonal_max = std::max(1e-30, diagonal.maxCoeff());
         const double lambda = options.smoothness * diagonal_max;
         // Lower bounds by an active set (semismooth Newton on the censored objective): the bounds the
         // current map misses enter as ordinary rows; re-solve until that set no longer changes.
         std::vector<Eigen::Index> active;
-        for (int round = 0; round < (bound_rows.empty() ? 1 : kMaxBoundRounds); ++round) {
+        for (int round = 0; round < (bound_rows[c].empty() ? 1 : kMaxBoundRounds); ++round) {
           std::vector<Eigen::Index> missed;
-          if (!bound_rows.empty()) {
+          if (!bound_rows[c].empty()) {
             const Eigen::VectorXf xf = x.cast<float>();
-            for (Eigen::Index r : bound_rows)
+            for (Eigen::Index r : bound_rows[c])
               if (a[c].row(r).dot(xf) < y[c][r]) missed.push_back(r);
             if (round > 0 && missed == active) break;
             active = missed;
@@ -246,7 +248,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         const Eigen::VectorXf pred = a[c] * x.cast<float>();
         for (Eigen::Index r = 0; r < rows; ++r) {
           double e = double(y[c][r]) - pred[r];
-          if (lower[r] && e < 0) e = 0;  // a lower bound the prediction meets
+          if (lower[r * 3 + c] && e < 0) e = 0;  // a lower bound the prediction meets
           residual[r] += e * e;
           sse += alpha[r] * e * e;
           wsum += alpha[r];

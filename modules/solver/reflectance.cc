@@ -534,7 +534,7 @@ std::vector<uint8_t> MetLowerBounds(const ObservationSet& observations, const st
       for (int c = 0; c < 3; ++c) {
         float pred = 0;
         for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * resp[b * 3 + c];
-        met[k * 3 + c] = pred >= ob.rgb[c];
+        met[k * 3 + c] = ob.lower_bound(c) && pred >= ob.rgb[c];
       }
     }
   });

@@ -246,6 +246,11 @@ TEST_F(SolverTest, ClippedHighlightsAsLowerBoundsAreNotBiased) {
       for (int c = 0; c < 3; ++c) ob.rgb[c] = std::min(ob.rgb[c], clip);
       if (over && mode == "drop") continue;
       if (over && mode == "lower_bound") ob.flags = kObservationLowerBound;
+      if (over && mode == "channel_bounds") {  // only the channels over the clip level (observe with linearize stats)
+        ob.flags = kObservationLowerBound;
+        for (int c = 0; c < 3; ++c)
+          if (ob.rgb[c] >= clip) ob.flags |= ObservationBoundChannel(c);
+      }
       kept.push_back(ob);
     }
     obs.records = kept;
@@ -306,6 +311,13 @@ TEST_F(SolverTest, ClippedHighlightsAsLowerBoundsAreNotBiased) {
   EXPECT_LT(noisy_bounded.lighting_error, noisy_dropped.lighting_error);
   EXPECT_GT(noisy_bounded.albedo_psnr, noisy_dropped.albedo_psnr - 0.1);
   EXPECT_NEAR(noisy_bounded.gloss_ratio, 1.0, 0.06);
+
+  // Only the channels that clipped as bounds: the others of the same observations are measurements.
+  const ClipCase channel_bounded = run(clipped(noisy, 75, "channel_bounds"));
+  report("5% noise, 25% clipped", {{"channel bounds", channel_bounded}});
+  EXPECT_LT(channel_bounded.lighting_error, noisy_bounded.lighting_error + 0.005);
+  EXPECT_GT(channel_bounded.albedo_psnr, noisy_bounded.albedo_psnr - 0.1);
+  EXPECT_NEAR(channel_bounded.gloss_ratio, 1.0, 0.06);
 }
 
 // Passers-by: in every photo a patch of the object (about 12% of the
