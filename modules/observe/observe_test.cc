@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -324,6 +325,23 @@ TEST_F(ObserveTest, FootprintsWithClippedPixelsAreDroppedNotAveraged) {
   EXPECT_LT(dropped_default, dropped_strict);
 }
 
+// An affine image with a 20 × 40 px highlight that linearize distrusted
+// (confidence 0): its true radiance and what the photo recorded, per channel.
+struct ClippedHighlight {
+  Image truth = AffineImage(160, 120), radiance = AffineImage(160, 120);
+  Image confidence = Image(160, 120, 1, 1.0f);
+  ClippedHighlight(const std::array<float, 3>& true_rgb, const std::array<float, 3>& recorded_rgb) {
+    for (int y = 40; y < 80; ++y)
+      for (int x = 70; x < 90; ++x) {
+        confidence.at(x, y) = 0.0f;
+        for (int c = 0; c < 3; ++c) {
+          truth.at(x, y, c) = true_rgb[c];
+          radiance.at(x, y, c) = recorded_rgb[c];
+        }
+      }
+  }
+};
+
 // By default (clipped_footprints: lower_bound) a footprint over the share is
 // kept as a lower bound: the plain mean over its pixels, clipped ones at the
 // clip level. Checked against the mean of the unclipped truth over the same
@@ -332,18 +350,10 @@ TEST_F(ObserveTest, FootprintsWithClippedPixelsAreDroppedNotAveraged) {
 TEST_F(ObserveTest, ClippedFootprintsBecomeLowerBoundsOfTheTruth) {
   const TriangleMesh grid = Grid(21);
   const RayCaster caster({&grid});
-  Image truth = AffineImage(160, 120);
-  Image radiance = truth;
-  Image confidence(160, 120, 1, 1.0f);
+  // The highlight's true radiance 3, recorded at the clip level 1.
+  const ClippedHighlight scene({3.0f, 3.0f, 3.0f}, {1.0f, 1.0f, 1.0f});
+  const Image &truth = scene.truth, &radiance = scene.radiance, &confidence = scene.confidence;
   const Image full(160, 120, 1, 1.0f);
-  for (int y = 40; y < 80; ++y)
-    for (int x = 70; x < 90; ++x) {
-      confidence.at(x, y) = 0.0f;
-      for (int c = 0; c < 3; ++c) {
-        truth.at(x, y, c) = 3.0f;     // the highlight's true radiance
-        radiance.at(x, y, c) = 1.0f;  // recorded at the clip level
-      }
-    }
   const ImageRecord pose = LookAt({0.3, -0.2, 3.0});
   const std::vector<float> radius = VertexFootprintRadius(grid);
   ObserveOptions o = options_;
@@ -392,19 +402,11 @@ TEST_F(ObserveTest, ClippedFootprintsBecomeLowerBoundsOfTheTruth) {
 TEST_F(ObserveTest, OnlyTheChannelsThatClippedBecomeBounds) {
   const TriangleMesh grid = Grid(21);
   const RayCaster caster({&grid});
-  Image truth = AffineImage(160, 120);
-  Image radiance = truth;
-  Image confidence(160, 120, 1, 1.0f);
-  const Image full(160, 120, 1, 1.0f);
   const float clip_level = 1.0f;
-  for (int y = 40; y < 80; ++y)
-    for (int x = 70; x < 90; ++x) {
-      confidence.at(x, y) = 0.0f;
-      truth.at(x, y, 0) = 3.0f;  // red: true radiance 3, recorded at the clip level
-      radiance.at(x, y, 0) = clip_level;
-      truth.at(x, y, 1) = radiance.at(x, y, 1) = 0.6f;  // green and blue: below the clip level
-      truth.at(x, y, 2) = radiance.at(x, y, 2) = 0.7f;
-    }
+  // Red: true radiance 3, recorded at the clip level; green and blue below it.
+  const ClippedHighlight scene({3.0f, 0.6f, 0.7f}, {clip_level, 0.6f, 0.7f});
+  const Image &truth = scene.truth, &radiance = scene.radiance, &confidence = scene.confidence;
+  const Image full(160, 120, 1, 1.0f);
   const ImageRecord pose = LookAt({0.3, -0.2, 3.0});
   const std::vector<float> radius = VertexFootprintRadius(grid);
   PhotoView view{camera_, pose, &radiance, &confidence};
