@@ -6,7 +6,7 @@ set multiplot layout 3,3 title 'Stability: sweep_bunny.yaml'
 set grid
 set key top right
 set ylabel 'relight PSNR [dB]'
-set yrange [16:29]
+set yrange [15:29]
 set title 'photos'
 set xrange [-0.5:4.5]
 set xtics ("1" 0, "3" 1, "6" 2, "12" 3, "24" 4)
