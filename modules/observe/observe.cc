@@ -123,51 +123,53 @@ struct Pyramid {
     return out;
   }
 
-  // Confidence-weighted mean colour over a disc of `radius_px` (level-0 pixels)
-  // around `center_px`; returns the mean confidence over the disc. With
-  // `plain_rgb`, also the unweighted mean over the same taps, and with
-  // `over_share` each channel's share of over-exposed pixels (-1 when unknown).
-  double Sample(const Eigen::Vector2d& center_px, double radius_px, float rgb[3], float* plain_rgb = nullptr,
-                float* over_share = nullptr) const {
+  // Calls `tap(level, x, y)` for the taps of a disc of `radius_px` (level-0
+  // pixels) around `center_px`, at the pyramid level where the disc spans about
+  // 1.5 to 3 pixels; returns the number of taps.
+  template <typename Tap>
+  int ForEachTap(const Eigen::Vector2d& center_px, double radius_px, Tap&& tap) const {
     int level = 0;
     while (level + 1 < static_cast<int>(weighted.size()) && radius_px / (1 << (level + 1)) >= 1.5) ++level;
     const double s = 1.0 / (1 << level);
     const double r = radius_px * s;
     const int k = std::clamp(static_cast<int>(std::ceil(r)), 1, 3);
-    double sum_w[3] = {0, 0, 0}, sum_p[3] = {0, 0, 0}, sum_o[3] = {0, 0, 0}, sum_c = 0;
     int n = 0;
-    const bool with_plain = plain_rgb != nullptr && !plain.empty();
-    const bool with_over = over_share != nullptr && !over.empty();
     for (int j = -k; j <= k; ++j) {
       for (int i = -k; i <= k; ++i) {
         const double dx = r * i / k, dy = r * j / k;
         if (dx * dx + dy * dy > r * r + 1e-9) continue;
-        const double x = center_px.x() * s + dx, y = center_px.y() * s + dy;
-        float w[3], c;
-        SampleBilinear(weighted[level], x, y, w);
-        SampleBilinear(confidence[level], x, y, &c);
-        for (int q = 0; q < 3; ++q) sum_w[q] += w[q];
-        if (with_plain) {
-          float p[3];
-          SampleBilinear(plain[level], x, y, p);
-          for (int q = 0; q < 3; ++q) sum_p[q] += p[q];
-        }
-        if (with_over) {
-          float p[3];
-          SampleBilinear(over[level], x, y, p);
-          for (int q = 0; q < 3; ++q) sum_o[q] += p[q];
-        }
-        sum_c += c;
+        tap(level, center_px.x() * s + dx, center_px.y() * s + dy);
         ++n;
       }
     }
-    if (with_plain)
-      for (int q = 0; q < 3; ++q) plain_rgb[q] = static_cast<float>(sum_p[q] / std::max(1, n));
-    if (over_share != nullptr)
-      for (int q = 0; q < 3; ++q) over_share[q] = with_over ? static_cast<float>(sum_o[q] / std::max(1, n)) : -1.0f;
+    return n;
+  }
+
+  // Confidence-weighted mean colour over the disc; returns the mean confidence over it.
+  double Sample(const Eigen::Vector2d& center_px, double radius_px, float rgb[3]) const {
+    double sum_w[3] = {0, 0, 0}, sum_c = 0;
+    const int n = ForEachTap(center_px, radius_px, [&](int level, double x, double y) {
+      float w[3], c;
+      SampleBilinear(weighted[level], x, y, w);
+      SampleBilinear(confidence[level], x, y, &c);
+      for (int q = 0; q < 3; ++q) sum_w[q] += w[q];
+      sum_c += c;
+    });
     if (sum_c <= 1e-9) return 0.0;
     for (int q = 0; q < 3; ++q) rgb[q] = static_cast<float>(sum_w[q] / sum_c);
     return sum_c / n;
+  }
+
+  // Unweighted mean of an RGB pyramid (`plain` or `over`) over the same taps as Sample.
+  void Mean(const std::vector<Image>& pyramid, const Eigen::Vector2d& center_px, double radius_px,
+            float mean[3]) const {
+    double sum[3] = {0, 0, 0};
+    const int n = ForEachTap(center_px, radius_px, [&](int level, double x, double y) {
+      float p[3];
+      SampleBilinear(pyramid[level], x, y, p);
+      for (int q = 0; q < 3; ++q) sum[q] += p[q];
+    });
+    for (int q = 0; q < 3; ++q) mean[q] = static_cast<float>(sum[q] / std::max(1, n));
   }
 };
 
@@ -226,8 +228,7 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
         o.edge_margin_px > 0 ? Ramp(edge_distance.at(ix, iy) - radius_px, 0.0, o.edge_margin_px) : 1.0;
     if (edge_factor <= 0) return;
     Observation obs;
-    float plain_rgb[3] = {0, 0, 0}, over_share[3] = {-1, -1, -1};
-    const double pixel_confidence = pyramid.Sample(px, radius_px, obs.rgb, plain_rgb, over_share);
+    const double pixel_confidence = pyramid.Sample(px, radius_px, obs.rgb);
     const double angle_deg = std::acos(std::min(1.0, cos_view)) * 180.0 / M_PI;
     const double geometric_confidence = Ramp(angle_deg, o.grazing_min_deg, o.grazing_full_deg) * edge_factor;
     double confidence = pixel_confidence * geometric_confidence;
@@ -240,10 +241,14 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
       // channels that clipped. With bound_channels = clipped, a channel with no over-exposed pixel
       // in the footprint measures its mean. When no channel clipped (black-clipped or next to a
       // clipped pixel) or which did is unknown, all three are bounds.
-      for (int c = 0; c < 3; ++c) obs.rgb[c] = plain_rgb[c];
+      pyramid.Mean(pyramid.plain, px, radius_px, obs.rgb);
       uint32_t channels = 0;
-      for (int c = 0; c < 3; ++c)
-        if (over_share[c] > 1e-6f) channels |= ObservationBoundChannel(c);
+      if (!pyramid.over.empty()) {
+        float over_share[3];  // each channel's share of over-exposed pixels
+        pyramid.Mean(pyramid.over, px, radius_px, over_share);
+        for (int c = 0; c < 3; ++c)
+          if (over_share[c] > 1e-6f) channels |= ObservationBoundChannel(c);
+      }
       obs.flags = kObservationLowerBound | (channels == kObservationBoundChannels ? 0u : channels);
       confidence = geometric_confidence;
     } else if (confidence < o.min_confidence || confidence <= 0) {
@@ -335,7 +340,14 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
       if (fs::exists(stats_path)) {
         const Json stats = ReadJsonFile(stats_path);
         if (stats.contains("overexposed_linear") && stats["overexposed_linear"].is_number()) {
-          view.overexposed_linear = stats["overexposed_linear"].get<double>();
+          const double level = stats["overexposed_linear"].get<double>();
+          if (std::isfinite(level) && level > 0) {
+            view.overexposed_linear = level;
+          } else {
+            RLOG_WARN("'{}': overexposed_linear = {} is not a positive radiance; every channel of a clipped "
+                      "footprint becomes a bound (rerun linearize to restore it)",
+                      stats_path, level);
+          }
         }
       }
       size_t clipped = 0;
