@@ -29,6 +29,8 @@ InverseProblem LoadInverseProblem(const std::string& mesh_dir, const std::string
   p.visibility = ReadVisibility(vis);
   p.observations = ReadObservations(obs);
   p.photos = ReadObservedPhotos(photos);
+  p.footprint_scale = ReadObservedFootprintScale(photos);
+  p.mesh_source = ReadMeshSource(mesh_dir);
   if (p.visibility.per_vertex.size() != p.mesh.num_vertices() || p.observations.num_vertices != p.mesh.num_vertices()) {
     RELIGHT_USER_ERROR() << "'" << mesh << "' (" << p.mesh.num_vertices() << " vertices), '" << vis << "' ("
                          << p.visibility.per_vertex.size() << ") and '" << obs << "' (" << p.observations.num_vertices
@@ -66,6 +68,8 @@ LeaveOneOutFit LeaveOneOut(InverseProblem* problem, const InverseOptions& option
 
   InverseProblem sub;
   sub.mesh = problem->mesh;
+  sub.footprint_scale = problem->footprint_scale;
+  sub.mesh_source = problem->mesh_source;
   sub.visibility = std::move(problem->visibility);
   std::vector<uint32_t> others;
   for (uint32_t i = 0; i < n; ++i)

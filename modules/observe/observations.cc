@@ -77,7 +77,7 @@ ObservationSet ReadObservations(const std::string& path) {
   return set;
 }
 
-void WriteObservedPhotos(const std::string& path, const std::vector<ObservedPhoto>& photos) {
+void WriteObservedPhotos(const std::string& path, const std::vector<ObservedPhoto>& photos, double footprint_scale) {
   Json j = Json::array();
   for (const auto& p : photos) {
     const auto& q = p.pose.cam_from_world_rotation;
@@ -93,7 +93,20 @@ void WriteObservedPhotos(const std::string& path, const std::vector<ObservedPhot
                  {"observed_vertices", p.observed_vertices},
                  {"mean_confidence", p.mean_confidence}});
   }
-  WriteJsonAtomic(path, Json{{"format", "relight-observed-photos"}, {"version", 1}, {"photos", j}});
+  WriteJsonAtomic(path, Json{{"format", "relight-observed-photos"},
+                              {"version", 1},
+                              {"footprint_scale", footprint_scale},
+                              {"photos", j}});
+}
+
+double ReadObservedFootprintScale(const std::string& path) {
+  const Json j = ReadJsonFile(path);
+  const auto it = j.find("footprint_scale");
+  if (it == j.end()) return 1.0;
+  if (!it->is_number() || !(it->get<double>() > 0)) {
+    RELIGHT_USER_ERROR() << "'" << path << "' has a footprint_scale that is not a positive number; rerun the observe stage";
+  }
+  return it->get<double>();
 }
 
 std::vector<ObservedPhoto> ReadObservedPhotos(const std::string& path) {

@@ -73,7 +73,13 @@ void WriteObservations(const std::string& path, const ObservationSet& set);
 ObservationSet ReadObservations(const std::string& path);
 
 // photos.json beside observations.bin.
-void WriteObservedPhotos(const std::string& path, const std::vector<ObservedPhoto>& photos);
+// `footprint_scale` is observe.footprint_scale: each observation averages the
+// photo over a disc of that many times its vertex's area radius (the inverse
+// stage's transport rows average over the same disc).
+void WriteObservedPhotos(const std::string& path, const std::vector<ObservedPhoto>& photos,
+                         double footprint_scale = 1.0);
 std::vector<ObservedPhoto> ReadObservedPhotos(const std::string& path);
+// The footprint scale recorded in photos.json (1, the default, for files that predate it).
+double ReadObservedFootprintScale(const std::string& path);
 
 }  // namespace relight

@@ -384,7 +384,7 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
     }
   }
   WriteObservations(JoinPath(output_dir, "observations.bin"), all);
-  WriteObservedPhotos(JoinPath(output_dir, "photos.json"), photos);
+  WriteObservedPhotos(JoinPath(output_dir, "photos.json"), photos, options.footprint_scale);
   summary.observations = all.records.size();
   summary.unobserved_vertices = std::count(per_vertex.begin(), per_vertex.end(), 0);
 

@@ -325,6 +325,13 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
 
 }  // namespace
 
+bool UseFootprintRows(const InverseOptions& o, const InverseProblem& problem) {
+  if (o.transport != "pixel" || o.transport_footprint == "off") return false;
+  if (o.transport_footprint == "on") return true;
+  // auto: a given mesh's normals are the surface's; a reconstruction's are estimates.
+  return problem.mesh_source == "ground_truth" || problem.mesh_source == "file";
+}
+
 InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& o, const KnownQuantities* known) {
   Timer total;
   InverseResult result;
@@ -347,6 +354,8 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   to.env_resolution = o.env_resolution;
   to.sh_order = o.sh_order;
   to.keep_energy = o.transport_keep_energy;
+  summary.transport_footprint = UseFootprintRows(o, problem);
+  to.footprint_scale = summary.transport_footprint ? problem.footprint_scale : 0.0;
   to.max_coefficients = o.transport_max_coefficients;
   to.route = o.transport;
   const TransportStore transport = BuildTransport(problem.mesh, problem.visibility, obs, to);
@@ -354,9 +363,11 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   summary.transport_coefficients = transport.num_coefficients();
   const size_t rows = nv * 1 + obs.records.size() * std::max(0, transport.num_lobes() - 1);
   summary.transport_mean_coefficients_per_row = double(transport.num_coefficients()) / std::max<size_t>(1, rows);
-  RLOG_INFO("transport: {} observations x {} lobes, {:.1f} coefficients per row, {:.0f} MB, {:.1f} s",
+  RLOG_INFO("transport: {} observations x {} lobes, {:.1f} coefficients per row, {:.0f} MB, {:.1f} s; {}",
             obs.records.size(), basis.size(), summary.transport_mean_coefficients_per_row,
-            transport.bytes() / 1048576.0, summary.transport_seconds);
+            transport.bytes() / 1048576.0, summary.transport_seconds,
+            summary.transport_footprint ? "rows averaged over the observations' footprints"
+                                        : "rows at the vertex normals (inverse.transport_footprint)");
 
   // Held-out and training observations; per-photo lighting subsets.
   SolveContext ctx{problem, o, known, transport, {}, {}, {}, {}, {}, {}};
@@ -570,6 +581,14 @@ KnownQuantities LoadKnown(const InverseOptions& o, const std::string& ingest_dir
 
 }  // namespace
 
+std::string ReadMeshSource(const std::string& mesh_dir) {
+  const std::string path = JoinPath(mesh_dir, "mesh_summary.json");
+  if (!fs::is_regular_file(path)) return "";
+  const Json j = ReadJsonFile(path);
+  const auto it = j.find("source");
+  return it != j.end() && it->is_string() ? it->get<std::string>() : "";
+}
+
 InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir, const std::string& mesh_dir,
                           const std::string& visibility_dir, const std::string& observe_dir,
                           const std::string& output_dir) {
@@ -579,6 +598,8 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   problem.visibility = ReadVisibility(JoinPath(visibility_dir, "visibility.bin"));
   problem.observations = ReadObservations(JoinPath(observe_dir, "observations.bin"));
   problem.photos = ReadObservedPhotos(JoinPath(observe_dir, "photos.json"));
+  problem.footprint_scale = ReadObservedFootprintScale(JoinPath(observe_dir, "photos.json"));
+  problem.mesh_source = ReadMeshSource(mesh_dir);
   if (problem.visibility.per_vertex.size() != problem.mesh.num_vertices() ||
       problem.observations.num_vertices != problem.mesh.num_vertices()) {
     RELIGHT_USER_ERROR() << "mesh (" << problem.mesh.num_vertices() << " vertices), visibility ("
@@ -658,6 +679,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
     j["lower_bounds_mean_shortfall"] = s.lower_bounds_mean_shortfall;
   }
   j["transport_seconds"] = s.transport_seconds;
+  j["transport_footprint"] = s.transport_footprint;
   j["transport_mean_coefficients_per_row"] = s.transport_mean_coefficients_per_row;
   Json iters = Json::array();
   for (const auto& it : s.iterations) {

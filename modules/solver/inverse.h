@@ -23,6 +23,8 @@ struct InverseProblem {
   VisibilityData visibility;
   ObservationSet observations;
   std::vector<ObservedPhoto> photos;
+  double footprint_scale = 1.0;      // observe.footprint_scale: the surface disc each observation averages
+  std::string mesh_source;           // mesh.source of the mesh stage (mvs, file, ground_truth; empty: unknown)
 };
 
 // Optional known quantities (synthetic scenes): per-photo octahedral RGB maps
@@ -67,6 +69,7 @@ struct InverseSummary {
   std::vector<IterationRecord> iterations;
   int best_iteration = 0;
   double transport_seconds = 0;
+  bool transport_footprint = false;        // rows averaged over observation footprints (inverse.transport_footprint)
   size_t transport_coefficients = 0;
   double transport_mean_coefficients_per_row = 0;
   size_t train_observations = 0;
@@ -88,6 +91,11 @@ struct InverseResult {
 };
 
 // Solves the problem (library entry point for the stage, tests and sweeps).
+// Whether the transport rows average over footprints (inverse.transport_footprint; auto by problem.mesh_source).
+bool UseFootprintRows(const InverseOptions& o, const InverseProblem& problem);
+// mesh.source as the mesh stage recorded it in <mesh_dir>/mesh_summary.json ("" when absent).
+std::string ReadMeshSource(const std::string& mesh_dir);
+
 InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& options,
                            const KnownQuantities* known = nullptr);
 

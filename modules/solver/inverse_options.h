@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 4};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 5};
 
 struct InverseOptions {
   // Lighting representation.
@@ -22,6 +22,7 @@ struct InverseOptions {
   std::string transport = "pixel";      // how transport rows are built: pixel or wavelet
   double transport_keep_energy = 0.999; // Haar truncation of each transport row
   int transport_max_coefficients = 256; // cap per row
+  std::string transport_footprint = "auto";  // rows average over each observation's footprint: auto, on or off
 
   // Reflectance model.
   std::vector<std::string> basis = {"lambertian", "ggx:0.1", "ggx:0.3", "phong:50", "phong:500"};
@@ -77,6 +78,13 @@ struct InverseOptions {
         .Range(0.5, 1.0);
     t->Add("transport_max_coefficients", &transport_max_coefficients, "At most this many coefficients per row.")
         .Range(1, 16384);
+    t->Add("transport_footprint", &transport_footprint,
+           "Pixel route: each row is the mean over the observation's footprint on the surface (the disc `observe` "
+           "averages the photo over, observe.footprint_scale), with the mesh's interpolated normals inside it, instead "
+           "of the vertex normal alone, so narrow lobes predict the highlight the pixels saw. auto: on for a given "
+           "mesh (mesh.source ground_truth or file), whose normals are the surface's; off for an MVS reconstruction, "
+           "whose normals inside a footprint are estimates (measured in docs/RESULTS.md).")
+        .Choices({"auto", "on", "off"});
     t->Add("basis", &basis,
            "Basis BRDFs: lambertian, ggx:ALPHA[:F0], cook_torrance:ALPHA[:F0], phong:EXPONENT. "
            "The first Lambertian lobe carries the albedo.");

@@ -109,7 +109,9 @@ void BM_TransportRoute(benchmark::State& state) {
   TransportOptions to;
   to.basis = ParseLobeSpecs({"lambertian", "ggx:0.08", "ggx:0.2", "ggx:0.4", "phong:50", "phong:200", "phong:500"});
   to.env_resolution = 32;
-  to.route = state.range(1) == 0 ? "pixel" : "wavelet";
+  // 0: pixel route averaged over footprints (the default), 1: wavelet route, 2: pixel route at the vertex normal.
+  to.route = state.range(1) == 1 ? "wavelet" : "pixel";
+  to.footprint_scale = state.range(1) == 2 ? 0.0 : 1.0;
   size_t coefficients = 0;
   for (auto _ : state) {
     const TransportStore t = BuildTransport(p.problem.mesh, p.problem.visibility, p.problem.observations, to);
@@ -118,9 +120,9 @@ void BM_TransportRoute(benchmark::State& state) {
   const double rows = double(p.problem.mesh.num_vertices()) + 6.0 * p.problem.observations.records.size();
   state.counters["rows"] = rows;
   state.counters["coeffs/row"] = coefficients / rows;
-  state.SetLabel(to.route);
+  state.SetLabel(state.range(1) == 2 ? "pixel, vertex normal" : to.route);
 }
-BENCHMARK(BM_TransportRoute)->Args({20000, 0})->Args({20000, 1})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_TransportRoute)->Args({20000, 2})->Args({20000, 0})->Args({20000, 1})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 BENCHMARK(BM_SolveMinerva)
     ->Args({20000, 6})

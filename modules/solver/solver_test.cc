@@ -546,5 +546,24 @@ TEST_F(SolverTest, ModelSelectionWithKnownLightingChoosesMaterialsAndLobes) {
   EXPECT_GT(AlbedoPsnr(glossy, g.reflectance), 30.0);
 }
 
+// inverse.transport_footprint: auto trusts the normals of a given mesh, not those of a reconstruction.
+TEST(InverseOptionsTest, FootprintRowsFollowTheMeshSource) {
+  InverseOptions o;
+  InverseProblem p;
+  const std::pair<const char*, bool> cases[] = {{"ground_truth", true}, {"file", true}, {"mvs", false}, {"", false}};
+  for (const auto& [source, expected] : cases) {
+    p.mesh_source = source;
+    o.transport_footprint = "auto";
+    EXPECT_EQ(UseFootprintRows(o, p), expected) << source;
+    o.transport_footprint = "on";
+    EXPECT_TRUE(UseFootprintRows(o, p)) << source;
+    o.transport_footprint = "off";
+    EXPECT_FALSE(UseFootprintRows(o, p)) << source;
+  }
+  o.transport_footprint = "on";
+  o.transport = "wavelet";  // the seed's route has no footprint average
+  EXPECT_FALSE(UseFootprintRows(o, p));
+}
+
 }  // namespace
 }  // namespace relight

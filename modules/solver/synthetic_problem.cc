@@ -62,6 +62,8 @@ SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
   mesh.ComputeVertexNormals();
   const TriangleMesh ground = MakeGrid(-8, 8, -8, 8, 0, 4, 4);
   s.problem.mesh = mesh;
+  // The observations come from this very mesh (with footprint rows, TransportOptions' default).
+  s.problem.mesh_source = "ground_truth";
   const size_t nv = mesh.num_vertices();
 
   // Visibility, every coefficient kept.

@@ -38,6 +38,18 @@ double PhongMirrorCutoff(const BrdfLobe& lobe) {
   return std::exp(std::log(1e-5) / lobe.exponent);
 }
 
+double LobeFootprintSpread(const BrdfLobe& lobe) {
+  // Angular standard deviation of the lobe around the mirror direction [rad]:
+  // Phong cos^n θ ≈ exp(−n θ²/2); GGX α in the half vector ≈ α/√2, twice that
+  // in the reflected direction.
+  double sigma = M_PI / 2;
+  if (lobe.model == BrdfModel::kPhong && lobe.exponent > 0) sigma = 1.0 / std::sqrt(lobe.exponent);
+  if (lobe.model == BrdfModel::kGgx || lobe.model == BrdfModel::kCookTorrance) sigma = std::sqrt(2.0) * lobe.roughness;
+  // Averaging a Gaussian lobe over mirror directions spread by 2δ changes its
+  // peak by about (2δ)²/(4σ²); below 2 % the vertex normal alone is kept.
+  return std::sqrt(0.02) * sigma;
+}
+
 TransportStore::Row TransportStore::Get(size_t observation, uint32_t vertex, int lobe) const {
   const size_t r = view_dependent_[lobe] ? vertex_rows_ + observation * num_dependent_ + slot_[lobe]
                                          : size_t(vertex) * num_independent_ + slot_[lobe];
@@ -53,6 +65,15 @@ float TransportStore::Dot(size_t observation, uint32_t vertex, int lobe, const f
 
 namespace {
 
+// A footprint normal that faces the camera, prepared for one observation (vertex-local frame).
+struct FootprintSample {
+  Eigen::Vector3f normal;
+  float weight;
+  Eigen::Vector3f wo;      // view direction in the sample's own frame
+  Eigen::Vector3f mirror;  // view direction mirrored about the sample's normal
+  const LocalFrame<float>* frame;
+};
+
 // One sparse row under construction.
 struct PendingRow {
   size_t row;
@@ -61,10 +82,10 @@ struct PendingRow {
 };
 
 // Per-vertex precomputation: the visible local texels with their weights
-// V·Ω·cos, local directions, and their global footprint.
+// V·Ω, local directions, and their global footprint.
 struct VertexTexels {
   std::vector<Eigen::Vector3f> dir_local;
-  std::vector<float> weight;             // V_j Ω_j cos_j
+  std::vector<float> weight;             // V_j Ω_j (the cosine belongs to each footprint normal)
   std::vector<std::array<uint16_t, 4>> splat_index;  // haar: bilinear global texels
   std::vector<std::array<float, 4>> splat_weight;
 };
@@ -135,6 +156,47 @@ void Splat(const Eigen::Vector3f& dir_world, int n, std::array<uint16_t, 4>* idx
 
 }  // namespace
 
+FootprintNormals SampleFootprintNormals(const TriangleMesh& mesh, double footprint_scale) {
+  const size_t nv = mesh.num_vertices();
+  RELIGHT_CHECK(mesh.normals.size() == nv);
+  std::vector<double> area(nv, 0.0);
+  std::vector<std::vector<uint32_t>> ring(nv);
+  for (size_t f = 0; f < mesh.num_faces(); ++f) {
+    const double a = mesh.FaceArea(static_cast<int>(f)) / 3.0;
+    for (int k = 0; k < 3; ++k) {
+      const int v = mesh.faces[f][k];
+      area[v] += a;
+      for (int q = 1; q < 3; ++q) ring[v].push_back(static_cast<uint32_t>(mesh.faces[f][(k + q) % 3]));
+    }
+  }
+  FootprintNormals out;
+  out.first.assign(nv + 1, 0);
+  for (size_t v = 0; v < nv; ++v) {
+    std::vector<uint32_t>& nb = ring[v];
+    std::sort(nb.begin(), nb.end());
+    nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+    const Eigen::Vector3f n = mesh.normals[v];
+    const LocalFrame<float> frame = FrameFromNormal<float>(n);
+    out.normal_local.emplace_back(0.0f, 0.0f, 1.0f);
+    out.weight.push_back(1.0f);
+    const double radius = footprint_scale * std::sqrt(area[v] / M_PI);
+    if (footprint_scale > 0 && radius > 0 && !nb.empty()) {
+      out.weight.back() = 1.0f / 3.0f;
+      const float w = static_cast<float>(2.0 / (3.0 * nb.size()));
+      for (uint32_t j : nb) {
+        const double edge = (mesh.vertices[j] - mesh.vertices[v]).cast<double>().norm();
+        const float t = edge > 0 ? static_cast<float>(std::min(1.0, 0.5 * std::sqrt(3.0) * radius / edge)) : 0.0f;
+        Eigen::Vector3f m = n + t * (mesh.normals[j] - n);
+        if (!(m.squaredNorm() > 1e-12f)) m = n;
+        out.normal_local.push_back(frame.ToLocal(m.normalized()));
+        out.weight.push_back(w);
+      }
+    }
+    out.first[v + 1] = static_cast<uint32_t>(out.normal_local.size());
+  }
+  return out;
+}
+
 TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& visibility,
                               const ObservationSet& observations, const TransportOptions& o) {
   RELIGHT_CHECK(mesh.normals.size() == mesh.num_vertices());
@@ -200,6 +262,15 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
     });
   }
 
+  const FootprintNormals footprint = SampleFootprintNormals(mesh, wavelet ? 0.0 : o.footprint_scale);
+  // Each vertex's spread: the largest angle between its normal and a footprint normal [rad].
+  std::vector<float> footprint_spread(nv, 0.0f);
+  for (size_t v = 0; v < nv; ++v)
+    for (uint32_t s = footprint.first[v]; s < footprint.first[v + 1]; ++s)
+      footprint_spread[v] = std::max(footprint_spread[v], std::acos(std::clamp(footprint.normal_local[s].z(), -1.0f, 1.0f)));
+  std::vector<float> lobe_min_spread(num_lobes);
+  for (int b = 0; b < num_lobes; ++b) lobe_min_spread[b] = static_cast<float>(LobeFootprintSpread(o.basis[b]));
+
   // Rows are built per block of vertices and merged in block order.
   constexpr size_t kBlock = 256;
   const size_t num_blocks = (nv + kBlock - 1) / kBlock;
@@ -212,6 +283,8 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
     std::vector<float> texel_integrals(size_t(n_local) * n_local);
     std::vector<double> sh_coeffs(haar ? 0 : store.dim_);
     VertexTexels t;
+    std::vector<float> acc(local_dirs.size(), 0.0f);  // texel sums over a footprint's normals
+    std::vector<FootprintSample> samples;
     Truncator truncator;
     // Haar row from texel values: splat onto the global map, transform, truncate.
     auto emit_haar = [&](size_t row, const std::vector<float>& values, const std::vector<int>& texels) {
@@ -280,8 +353,8 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
         if (vj <= 1e-4f) continue;
         const Eigen::Vector3f d = local_dirs[j].cast<float>();
         t.dir_local[j] = d;
-        t.weight[j] = static_cast<float>(vj * local_solid_angles[j] * std::max(0.0, local_dirs[j].z()));
-        if (t.weight[j] <= 0) continue;
+        t.weight[j] = static_cast<float>(vj * local_solid_angles[j]);
+        if (t.weight[j] <= 0 || local_dirs[j].z() <= 0) continue;
         if (haar) Splat(frame.ToWorld(d), n_global, &t.splat_index[j], &t.splat_weight[j]);
         visible.push_back(static_cast<int>(j));
       }
@@ -303,37 +376,98 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
           out.push_back(std::move(pr));
         }
       };
+      // The footprint's normals (vertex-local) and their frames.
+      const uint32_t s_begin = footprint.first[v], s_end = footprint.first[v + 1];
+      std::vector<LocalFrame<float>> sample_frame;
+      for (uint32_t s = s_begin; s < s_end; ++s) sample_frame.push_back(FrameFromNormal<float>(footprint.normal_local[s]));
+      // Sums texel values over the footprint's normals into `acc`, then lists the non-zero ones.
+      auto gather = [&]() {
+        values.clear();
+        support.clear();
+        for (int j : visible) {
+          if (acc[j] > 0) {
+            values.push_back(acc[j]);
+            support.push_back(j);
+          }
+          acc[j] = 0.0f;
+        }
+      };
       // View-independent (Lambertian) lobes: once per vertex.
       for (int b = 0; b < num_lobes; ++b) {
         if (store.view_dependent_[b]) continue;
-        values.clear();
-        support = visible;
-        for (int j : visible) values.push_back(t.weight[j] * static_cast<float>(1.0 / M_PI));
+        for (uint32_t s = s_begin; s < s_end; ++s) {
+          const Eigen::Vector3f& m = footprint.normal_local[s];
+          const float w = footprint.weight[s] * static_cast<float>(1.0 / M_PI);
+          for (int j : visible) acc[j] += w * t.weight[j] * std::max(0.0f, m.dot(t.dir_local[j]));
+        }
+        gather();
         finish(size_t(v) * store.num_independent_ + store.slot_[b]);
       }
-      // View-dependent lobes: per observation.
+      // View-dependent lobes: per observation, averaged over the footprint's
+      // normals that face the camera. A lobe much wider than the footprint's
+      // spread of mirror directions is evaluated at the vertex normal alone
+      // (LobeFootprintSpread), and for the others texels outside the union of
+      // the samples' lobes are skipped with one test against the vertex's own.
+      const float spread = footprint_spread[v];
       for (uint32_t q = first[v]; q < first[v + 1]; ++q) {
         const uint32_t obs = by_vertex[q];
         const Observation& ob = observations.records[obs];
         const Eigen::Vector3f wo(ob.view_local[0], ob.view_local[1], ob.view_local[2]);
-        const Eigen::Vector3f mirror(-wo.x(), -wo.y(), wo.z());
+        // Samples facing the camera: normal, weight, local view direction, mirror direction, frame.
+        samples.clear();
+        float facing = 0.0f;
+        for (uint32_t s = s_begin; s < s_end; ++s) {
+          const Eigen::Vector3f& m = footprint.normal_local[s];
+          const float cos_o = m.dot(wo);
+          if (cos_o <= 0) continue;
+          const LocalFrame<float>& fs = sample_frame[s - s_begin];
+          samples.push_back({m, footprint.weight[s], fs.ToLocal(wo), 2.0f * cos_o * m - wo, &fs});
+          facing += footprint.weight[s];
+        }
+        for (auto& sm : samples) sm.weight /= facing;
+        const Eigen::Vector3f mirror0(-wo.x(), -wo.y(), wo.z());
         for (int b = 0; b < num_lobes; ++b) {
           if (!store.view_dependent_[b]) continue;
           const BrdfLobe& lobe = o.basis[b];
+          const float hc = static_cast<float>(half_cutoff[b]), mc = static_cast<float>(mirror_cutoff[b]);
           values.clear();
           support.clear();
-          const float hc = static_cast<float>(half_cutoff[b]), mc = static_cast<float>(mirror_cutoff[b]);
-          for (int j : visible) {
-            const Eigen::Vector3f& wi = t.dir_local[j];
-            if (mc > -1 && wi.dot(mirror) < mc) continue;
-            if (hc > -1) {
-              const Eigen::Vector3f h = (wi + wo).normalized();
-              if (h.z() < hc) continue;
+          if (samples.size() <= 1 || spread < lobe_min_spread[b]) {
+            // The vertex normal alone.
+            for (int j : visible) {
+              const Eigen::Vector3f& wi = t.dir_local[j];
+              if (mc > -1 && wi.dot(mirror0) < mc) continue;
+              if (hc > -1 && (wi + wo).normalized().z() < hc) continue;
+              const float f = lobe.Eval<float>(wi, wo);
+              if (f <= 0) continue;
+              values.push_back(f * t.weight[j] * wi.z());
+              support.push_back(j);
             }
-            const float f = lobe.Eval<float>(wi, wo);
-            if (f <= 0) continue;
-            values.push_back(f * t.weight[j]);
-            support.push_back(j);
+          } else {
+            // Cutoffs widened by the spread: the mirror direction turns by up to twice the normal's angle.
+            const float mc_union = mc > -1 ? std::cos(std::min<float>(M_PI, std::acos(mc) + 2 * spread)) : -2.0f;
+            const float hc_union = hc > -1 ? std::cos(std::min<float>(M_PI, std::acos(hc) + spread)) : -2.0f;
+            for (int j : visible) {
+              const Eigen::Vector3f& wi = t.dir_local[j];
+              if (wi.dot(mirror0) < mc_union) continue;
+              Eigen::Vector3f h = Eigen::Vector3f::Zero();
+              if (hc > -1) {
+                h = (wi + wo).normalized();
+                if (h.z() < hc_union) continue;
+              }
+              float sum = 0.0f;
+              for (const FootprintSample& sm : samples) {
+                if (mc > -1 && wi.dot(sm.mirror) < mc) continue;
+                const float cos_i = sm.normal.dot(wi);
+                if (cos_i <= 0) continue;
+                if (hc > -1 && h.dot(sm.normal) < hc) continue;
+                const float f = lobe.Eval<float>(sm.frame->ToLocal(wi), sm.wo);
+                if (f > 0) sum += sm.weight * f * cos_i;
+              }
+              if (sum <= 0) continue;
+              values.push_back(sum * t.weight[j]);
+              support.push_back(j);
+            }
           }
           finish(store.vertex_rows_ + size_t(obs) * store.num_dependent_ + store.slot_[b]);
         }

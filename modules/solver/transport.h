@@ -12,6 +12,14 @@
 // reconstruction the recovered maps are rendered with), and the result is
 // Haar-transformed and truncated to the coefficients carrying its energy.
 // Lambertian lobes do not depend on w_o and are stored once per vertex.
+// An observation is the photo's mean over a footprint (observe), not a point:
+// where the interpolated normals turn inside it, a narrow lobe's highlight is
+// wider and lower than at the vertex. The pixel route therefore averages each
+// row over normals sampled across the footprint (SampleFootprintNormals), for
+// the lobes narrow enough for that spread to matter (LobeFootprintSpread); the
+// visibility stays the vertex's. This is the normal-variance filtering of
+// specular highlights in real-time rendering (Toksvig 2005), done by
+// quadrature instead of a widened lobe, since the basis lobes are fixed.
 // For the SH baseline the same texel integrals are projected onto world-frame
 // spherical harmonics (dense rows).
 //
@@ -46,7 +54,24 @@ struct TransportOptions {
   std::string route = "pixel";          // pixel or wavelet (haar only)
   int normal_grid = 32;                 // wavelet route: grid of rotation matrices (G×G octahedral normals)
   int view_grid = 32;                   // wavelet route: tabulated BRDF slices (G×G hemi-octahedral views)
+  // Pixel route: each row is the mean over the observation's footprint on the
+  // surface (a disc of footprint_scale × the vertex's area radius, as `observe`
+  // samples the photo), with the interpolated normals of the mesh inside it,
+  // instead of the vertex normal alone. 0 disables it.
+  double footprint_scale = 1.0;
 };
+
+// Normals sampled over each vertex's footprint, in the vertex's local frame,
+// with quadrature weights summing to 1: the centre (weight 1/3) and one point
+// towards every mesh neighbour at √3/2 of the footprint radius (together 2/3),
+// which integrates a quadratic function over the disc exactly for a regular
+// ring. Normals along the way are the renderer's linear interpolation.
+struct FootprintNormals {
+  std::vector<uint32_t> first;              // vertex v: [first[v], first[v + 1])
+  std::vector<Eigen::Vector3f> normal_local;
+  std::vector<float> weight;
+};
+FootprintNormals SampleFootprintNormals(const TriangleMesh& mesh, double footprint_scale);
 
 // Compact storage of all rows: one pool of (index, value) pairs.
 class TransportStore {
@@ -90,6 +115,9 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
 // Cosine of the half-vector angle beyond which a microfacet lobe's D is below
 // 1e-5 of its peak (used to skip texels); -1 for lobes evaluated everywhere.
 double LobeHalfVectorCutoff(const BrdfLobe& lobe);
+// The footprint spread of normals [rad] from which a lobe's rows average over
+// the footprint: below it the lobe is too wide for the spread to matter (under 2 %).
+double LobeFootprintSpread(const BrdfLobe& lobe);
 // Cosine of the angle to the mirror direction beyond which a Phong lobe is below 1e-5 of its peak.
 double PhongMirrorCutoff(const BrdfLobe& lobe);
 

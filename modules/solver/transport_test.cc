@@ -15,6 +15,7 @@
 #include "geometry/primitives.h"
 #include "geometry/raycaster.h"
 #include "render/render_view.h"
+#include "render/rng.h"
 #include "render/scene.h"
 #include "solver/lobe_spec.h"
 #include "solver/model.h"
@@ -131,6 +132,7 @@ Comparison Compare(int resolution) {
   to.env_resolution = resolution;
   to.keep_energy = 1.0;
   to.max_coefficients = resolution * resolution;
+  to.footprint_scale = 0;  // the renderer is sampled at the vertex itself
   const TransportStore transport = BuildTransport(sphere, visibility, obs, to);
 
   RenderOptions render;
@@ -172,6 +174,160 @@ TEST(TransportTest, PredictionsAgreeWithTheMonteCarloRenderer) {
     EXPECT_LE(median, 0.03) << resolution;
     EXPECT_LE(p90, 0.12) << resolution;
   }
+}
+
+// A pixel averages the surface over its footprint, where interpolated normals
+// turn: a narrow lobe's highlight is wider and lower there than at the vertex.
+// Rows with transport footprint_scale 1 average over the disc of the vertex's
+// area radius. The truth here is the renderer's mean over points spread evenly
+// over that disc (camera rays through them, interpolated normals at the hits).
+struct FootprintErrors {
+  std::vector<double> footprint_rows, vertex_rows;  // relative error per observation against the footprint mean
+};
+
+FootprintErrors CompareFootprints() {
+  TriangleMesh sphere = MakeIcosphere(4);  // 2562 vertices, neighbouring normals about 4° apart
+  for (auto& v : sphere.vertices) v.z() += 1.0f;
+  sphere.ComputeVertexNormals();
+  const int nv = static_cast<int>(sphere.num_vertices());
+  ReflectanceModel model;
+  model.basis = ParseLobeSpecs({"lambertian", "phong:300"});
+  model.materials = {{"glossy", {Eigen::Vector3d(0.3, 0.25, 0.2), Eigen::Vector3d::Constant(0.5)}}};
+  const Scene scene({{sphere, model}});
+  SunSkyParams sky;
+  sky.sun_dir_world = Eigen::Vector3d(std::cos(0.7) * std::cos(0.3), std::cos(0.7) * std::sin(0.3), std::sin(0.7));
+  sky.sun_radius_deg = 3.0;
+  const EnvMap env = MakeSunSky(sky, 256);
+  const Lighting lighting = Lighting::FromEnvMap(env);
+  const int resolution = 64;
+
+  const RayCaster caster({&sphere});
+  VisibilityOptions vo;
+  vo.resolution = resolution;
+  vo.supersampling = 2;
+  VisibilityData visibility;
+  visibility.resolution = resolution;
+  visibility.supersampling = vo.supersampling;
+  std::vector<uint32_t> ids(nv);
+  for (int v = 0; v < nv; ++v) ids[v] = v;
+  std::vector<float> maps;
+  BakeVisibilityMaps(sphere, caster, ids, vo, &maps);
+  const int n2 = resolution * resolution;
+  for (int v = 0; v < nv; ++v) {
+    std::vector<float> c(n2);
+    HaarForward(maps.data() + size_t(v) * n2, resolution, c.data());
+    visibility.per_vertex.push_back(SparseFromDense(c.data(), resolution));
+  }
+  // Each vertex's area radius (a third of its faces' area, as a disc).
+  std::vector<double> area(nv, 0.0);
+  for (size_t f = 0; f < sphere.num_faces(); ++f)
+    for (int k = 0; k < 3; ++k) area[sphere.faces[f][k]] += sphere.FaceArea(static_cast<int>(f)) / 3.0;
+
+  // Observations near the sun's highlight as seen from two cameras, where the lobe matters.
+  ObservationSet obs;
+  obs.num_photos = 1;
+  obs.num_vertices = nv;
+  const std::vector<Eigen::Vector3d> cameras = {{7, 1, 3}, {2, 7, 5}};
+  std::vector<int> camera_of;
+  for (size_t ci = 0; ci < cameras.size(); ++ci) {
+    const Eigen::Vector3d& cam = cameras[ci];
+    for (int v = 0; v < nv; ++v) {
+      const Eigen::Vector3d x = sphere.vertices[v].cast<double>();
+      const Eigen::Vector3d nrm = sphere.normals[v].cast<double>();
+      const Eigen::Vector3d to_cam = (cam - x).normalized();
+      if (nrm.dot(to_cam) < 0.3) continue;
+      const Eigen::Vector3d half = (to_cam + sky.sun_dir_world).normalized();
+      if (nrm.dot(half) < std::cos(20.0 * M_PI / 180.0)) continue;  // within 20° of the highlight's centre
+      Observation ob;
+      ob.vertex = v;
+      ob.photo = static_cast<uint32_t>(ci);
+      ob.confidence = 1;
+      const Eigen::Vector3d local = FrameFromNormal<double>(nrm).ToLocal(to_cam);
+      for (int k = 0; k < 3; ++k) ob.view_local[k] = static_cast<float>(local[k]);
+      obs.records.push_back(ob);
+    }
+  }
+  obs.num_photos = static_cast<uint32_t>(cameras.size());  // records are by photo, then vertex
+
+  LightingState l;
+  l.env_resolution = resolution;
+  l.Resize(static_cast<int>(cameras.size()));
+  const Image oct = env.ToOctahedral(resolution);
+  for (size_t i = 0; i < cameras.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < l.dim; ++k) l.values[i][c][k] = oct.pixels[size_t(k) * 3 + c];
+  l.UpdateCoefficients();
+  ReflectanceState r;
+  r.basis = model.basis;
+  r.num_materials = 1;
+  for (const auto& c : model.materials[0].coefficients) r.coefficients.push_back(c);
+  r.weights.assign(nv, 1.0f);
+  TransportOptions to;
+  to.basis = r.basis;
+  to.env_resolution = resolution;
+  to.keep_energy = 1.0;
+  to.max_coefficients = n2;
+  to.footprint_scale = 1.0;
+  const TransportStore footprint_rows = BuildTransport(sphere, visibility, obs, to);
+  to.footprint_scale = 0.0;
+  const TransportStore vertex_rows = BuildTransport(sphere, visibility, obs, to);
+
+  RenderOptions render;
+  render.light_samples = 32;
+  render.brdf_samples = 32;
+  FootprintErrors out;
+  constexpr int kPoints = 32;
+  for (size_t o = 0; o < obs.records.size(); ++o) {
+    const Observation& ob = obs.records[o];
+    const Eigen::Vector3d cam = cameras[ob.photo];
+    const Eigen::Vector3d x = sphere.vertices[ob.vertex].cast<double>();
+    const LocalFrame<double> frame = FrameFromNormal<double>(sphere.normals[ob.vertex].cast<double>());
+    const double radius = std::sqrt(area[ob.vertex] / M_PI);
+    Eigen::Vector3d truth = Eigen::Vector3d::Zero();
+    int points = 0;
+    for (int k = 0; k < kPoints; ++k) {
+      // Evenly over the disc: radius ∝ √u, golden-angle turns.
+      const double rho = radius * std::sqrt((k + 0.5) / kPoints), phi = k * 2.39996323;
+      const Eigen::Vector3d p = x + rho * (std::cos(phi) * frame.tangent + std::sin(phi) * frame.bitangent);
+      const RayHit hit = scene.caster().Intersect({cam.cast<float>(), (p - cam).cast<float>()});
+      if (!hit.hit) continue;
+      const SurfacePoint sp = scene.PointFromHit(hit);
+      const Eigen::Vector3d dir = (cam - sp.position_world).normalized();
+      truth += PointRadiance(scene, lighting, sp, dir, render, 1, MixSeed(o, k)).mean;
+      ++points;
+    }
+    if (points < kPoints / 2) continue;
+    truth /= points;
+    float pf[3], pv[3];
+    Predict(footprint_rows, obs, o, r, l, pf);
+    Predict(vertex_rows, obs, o, r, l, pv);
+    const double norm = std::max(1e-6, truth.norm());
+    out.footprint_rows.push_back((Eigen::Vector3d(pf[0], pf[1], pf[2]) - truth).norm() / norm);
+    out.vertex_rows.push_back((Eigen::Vector3d(pv[0], pv[1], pv[2]) - truth).norm() / norm);
+  }
+  return out;
+}
+
+double Rms(const std::vector<double>& e) {
+  double s = 0;
+  for (double x : e) s += x * x;
+  return std::sqrt(s / std::max<size_t>(1, e.size()));
+}
+
+TEST(TransportTest, FootprintRowsPredictWhatAPixelFootprintSees) {
+  InitLogging("transport_test", "", LogLevel::kWarning);
+  setenv("RELIGHT_PROGRESS", "off", 1);
+  FootprintErrors e = CompareFootprints();
+  ASSERT_GT(e.footprint_rows.size(), 20u);
+  const double rms_footprint = Rms(e.footprint_rows), rms_vertex = Rms(e.vertex_rows);
+  std::sort(e.footprint_rows.begin(), e.footprint_rows.end());
+  std::sort(e.vertex_rows.begin(), e.vertex_rows.end());
+  std::printf("%zu highlight observations: relative error against the footprint mean: footprint rows median %.4f, "
+              "RMS %.4f; vertex rows median %.4f, RMS %.4f\n",
+              e.footprint_rows.size(), Quantile(e.footprint_rows, 0.5), rms_footprint, Quantile(e.vertex_rows, 0.5),
+              rms_vertex);
+  EXPECT_LE(Quantile(e.footprint_rows, 0.5), 0.05);
+  EXPECT_LE(rms_footprint, 0.6 * rms_vertex);
 }
 
 }  // namespace
