@@ -29,6 +29,28 @@
 namespace relight {
 namespace {
 
+// Visibility maps of every vertex of `mesh`, every Haar coefficient kept.
+VisibilityData BakeAll(const TriangleMesh& mesh, const RayCaster& caster, int resolution, int supersampling) {
+  VisibilityOptions vo;
+  vo.resolution = resolution;
+  vo.supersampling = supersampling;
+  VisibilityData visibility;
+  visibility.resolution = resolution;
+  visibility.supersampling = supersampling;
+  const int nv = static_cast<int>(mesh.num_vertices());
+  std::vector<uint32_t> ids(nv);
+  for (int v = 0; v < nv; ++v) ids[v] = v;
+  std::vector<float> maps;
+  BakeVisibilityMaps(mesh, caster, ids, vo, &maps);
+  const int n2 = resolution * resolution;
+  for (int v = 0; v < nv; ++v) {
+    std::vector<float> c(n2);
+    HaarForward(maps.data() + size_t(v) * n2, resolution, c.data());
+    visibility.per_vertex.push_back(SparseFromDense(c.data(), resolution));
+  }
+  return visibility;
+}
+
 struct Comparison {
   std::vector<double> rel_error;  // |prediction - rendered| / |rendered| per observation
   Eigen::Vector3d sum_predicted = Eigen::Vector3d::Zero(), sum_rendered = Eigen::Vector3d::Zero();
@@ -65,22 +87,7 @@ Comparison Compare(int resolution) {
 
   // Visibility maps of every vertex, every coefficient kept.
   const RayCaster caster({&sphere, &occluders});
-  VisibilityOptions vo;
-  vo.resolution = resolution;
-  vo.supersampling = 4;
-  VisibilityData visibility;
-  visibility.resolution = resolution;
-  visibility.supersampling = vo.supersampling;
-  std::vector<uint32_t> ids(nv);
-  for (int v = 0; v < nv; ++v) ids[v] = v;
-  std::vector<float> maps;
-  BakeVisibilityMaps(sphere, caster, ids, vo, &maps);
-  const int n2 = resolution * resolution;
-  for (int v = 0; v < nv; ++v) {
-    std::vector<float> c(n2);
-    HaarForward(maps.data() + size_t(v) * n2, resolution, c.data());
-    visibility.per_vertex.push_back(SparseFromDense(c.data(), resolution));
-  }
+  const VisibilityData visibility = BakeAll(sphere, caster, resolution, 4);
 
   // Observations: 120 random vertices facing each of three cameras, unoccluded.
   ObservationSet obs;
@@ -202,22 +209,8 @@ FootprintErrors CompareFootprints() {
   const int resolution = 64;
 
   const RayCaster caster({&sphere});
-  VisibilityOptions vo;
-  vo.resolution = resolution;
-  vo.supersampling = 2;
-  VisibilityData visibility;
-  visibility.resolution = resolution;
-  visibility.supersampling = vo.supersampling;
-  std::vector<uint32_t> ids(nv);
-  for (int v = 0; v < nv; ++v) ids[v] = v;
-  std::vector<float> maps;
-  BakeVisibilityMaps(sphere, caster, ids, vo, &maps);
+  const VisibilityData visibility = BakeAll(sphere, caster, resolution, 2);
   const int n2 = resolution * resolution;
-  for (int v = 0; v < nv; ++v) {
-    std::vector<float> c(n2);
-    HaarForward(maps.data() + size_t(v) * n2, resolution, c.data());
-    visibility.per_vertex.push_back(SparseFromDense(c.data(), resolution));
-  }
   // Each vertex's area radius (a third of its faces' area, as a disc).
   std::vector<double> area(nv, 0.0);
   for (size_t f = 0; f < sphere.num_faces(); ++f)
