@@ -1,4 +1,5 @@
 #include "evaluate/evaluate.h"
+#include "solver/inverse.h"
 
 #include <algorithm>
 #include <cmath>
@@ -555,9 +556,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
       }
     }
     if (reason.empty()) {
-      std::string mesh_source;
-      if (IsFile(JoinPath(in.mesh_dir, "mesh_summary.json")))
-        mesh_source = ReadJsonFile(JoinPath(in.mesh_dir, "mesh_summary.json")).value("source", "");
+      const std::string mesh_source = ReadMeshSource(in.mesh_dir);
       const bool same =
           mesh_source == "ground_truth" && truth_mesh.num_vertices() == model_mesh.num_vertices() && frame.IsIdentity();
       std::vector<char> seen(model_mesh.num_vertices(), 0);
@@ -648,9 +647,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
                                                       : frame.reason;
   }
   {
-    std::string mesh_source;
-    if (!in.mesh_dir.empty() && IsFile(JoinPath(in.mesh_dir, "mesh_summary.json")))
-      mesh_source = ReadJsonFile(JoinPath(in.mesh_dir, "mesh_summary.json")).value("source", "");
+    const std::string mesh_source = ReadMeshSource(in.mesh_dir);
     const std::string truth_path = JoinPath(gt, "mesh.ply");
     if (has_gt && IsFile(truth_path) && !mesh.empty() && frame.available && mesh_source != "ground_truth") {
       const TriangleMesh truth_mesh = ReadMesh(truth_path);

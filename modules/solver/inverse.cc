@@ -582,6 +582,7 @@ KnownQuantities LoadKnown(const InverseOptions& o, const std::string& ingest_dir
 }  // namespace
 
 std::string ReadMeshSource(const std::string& mesh_dir) {
+  if (mesh_dir.empty()) return "";
   const std::string path = JoinPath(mesh_dir, "mesh_summary.json");
   if (!fs::is_regular_file(path)) return "";
   const Json j = ReadJsonFile(path);

@@ -7,6 +7,8 @@
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "observe/observe.h"
+#include "solver/reflectance.h"
 #include "sphere/frame.h"
 #include "sphere/octahedral.h"
 #include "sphere/sh.h"
@@ -159,28 +161,19 @@ void Splat(const Eigen::Vector3f& dir_world, int n, std::array<uint16_t, 4>* idx
 FootprintNormals SampleFootprintNormals(const TriangleMesh& mesh, double footprint_scale) {
   const size_t nv = mesh.num_vertices();
   RELIGHT_CHECK(mesh.normals.size() == nv);
-  std::vector<double> area(nv, 0.0);
-  std::vector<std::vector<uint32_t>> ring(nv);
-  for (size_t f = 0; f < mesh.num_faces(); ++f) {
-    const double a = mesh.FaceArea(static_cast<int>(f)) / 3.0;
-    for (int k = 0; k < 3; ++k) {
-      const int v = mesh.faces[f][k];
-      area[v] += a;
-      for (int q = 1; q < 3; ++q) ring[v].push_back(static_cast<uint32_t>(mesh.faces[f][(k + q) % 3]));
-    }
-  }
+  // The radius `observe` samples the photo over, and the mesh neighbours.
+  const std::vector<float> area_radius = VertexFootprintRadius(mesh);
+  const std::vector<std::vector<uint32_t>> ring = VertexNeighbours(mesh);
   FootprintNormals out;
   out.first.assign(nv + 1, 0);
   for (size_t v = 0; v < nv; ++v) {
-    std::vector<uint32_t>& nb = ring[v];
-    std::sort(nb.begin(), nb.end());
-    nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+    const std::vector<uint32_t>& nb = ring[v];
     const Eigen::Vector3f n = mesh.normals[v];
     const LocalFrame<float> frame = FrameFromNormal<float>(n);
     out.normal_local.emplace_back(0.0f, 0.0f, 1.0f);
     out.weight.push_back(1.0f);
-    const double radius = footprint_scale * std::sqrt(area[v] / M_PI);
-    if (footprint_scale > 0 && radius > 0 && !nb.empty()) {
+    const double radius = footprint_scale * area_radius[v];
+    if (radius > 0 && !nb.empty()) {
       out.weight.back() = 1.0f / 3.0f;
       const float w = static_cast<float>(2.0 / (3.0 * nb.size()));
       for (uint32_t j : nb) {

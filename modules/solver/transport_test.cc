@@ -14,6 +14,7 @@
 #include "core/log.h"
 #include "geometry/primitives.h"
 #include "geometry/raycaster.h"
+#include "observe/observe.h"
 #include "render/render_view.h"
 #include "render/rng.h"
 #include "render/scene.h"
@@ -211,10 +212,8 @@ FootprintErrors CompareFootprints() {
   const RayCaster caster({&sphere});
   const VisibilityData visibility = BakeAll(sphere, caster, resolution, 2);
   const int n2 = resolution * resolution;
-  // Each vertex's area radius (a third of its faces' area, as a disc).
-  std::vector<double> area(nv, 0.0);
-  for (size_t f = 0; f < sphere.num_faces(); ++f)
-    for (int k = 0; k < 3; ++k) area[sphere.faces[f][k]] += sphere.FaceArea(static_cast<int>(f)) / 3.0;
+  // Each vertex's area radius, as observe samples it.
+  const std::vector<float> area_radius = VertexFootprintRadius(sphere);
 
   // Observations near the sun's highlight as seen from two cameras, where the lobe matters.
   ObservationSet obs;
@@ -275,7 +274,7 @@ FootprintErrors CompareFootprints() {
     const Eigen::Vector3d cam = cameras[ob.photo];
     const Eigen::Vector3d x = sphere.vertices[ob.vertex].cast<double>();
     const LocalFrame<double> frame = FrameFromNormal<double>(sphere.normals[ob.vertex].cast<double>());
-    const double radius = std::sqrt(area[ob.vertex] / M_PI);
+    const double radius = area_radius[ob.vertex];
     Eigen::Vector3d truth = Eigen::Vector3d::Zero();
     int points = 0;
     for (int k = 0; k < kPoints; ++k) {
