@@ -233,7 +233,17 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
     const double geometric_confidence = Ramp(angle_deg, o.grazing_min_deg, o.grazing_full_deg) * edge_factor;
     double confidence = pixel_confidence * geometric_confidence;
     // Clipped pixels are the footprint's brightest (or darkest): the mean of the rest is biased, not noisier.
-    if (1.0 - pixel_confidence > o.max_distrusted_share + 1e-6) {  // 1e-6: rounding of the bilinear taps
+    // Over-exposed pixels are known per channel (bound_channels = clipped): a footprint holding any is a
+    // bound in those channels whatever its distrusted share, since even one clipped highlight pixel can
+    // carry much of the footprint's energy (docs/RESULTS.md, item 16). Other distrusted pixels (black-clipped,
+    // next to a clipped pixel) bias the mean only over max_distrusted_share.
+    float over_share[3] = {0, 0, 0};  // each channel's share of over-exposed pixels
+    bool over_exposed = false;
+    if (lower_bounds && !pyramid.over.empty() && pixel_confidence < 1.0 - 1e-6) {
+      pyramid.Mean(pyramid.over, px, radius_px, over_share);
+      over_exposed = over_share[0] > 1e-6f || over_share[1] > 1e-6f || over_share[2] > 1e-6f;
+    }
+    if (over_exposed || 1.0 - pixel_confidence > o.max_distrusted_share + 1e-6) {  // 1e-6: rounding of the taps
       if (geometric_confidence < o.min_confidence || geometric_confidence <= 0) return;
       clipped.fetch_add(1, std::memory_order_relaxed);
       if (!lower_bounds) return;
@@ -243,12 +253,8 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
       // clipped pixel) or which did is unknown, all three are bounds.
       pyramid.Mean(pyramid.plain, px, radius_px, obs.rgb);
       uint32_t channels = 0;
-      if (!pyramid.over.empty()) {
-        float over_share[3];  // each channel's share of over-exposed pixels
-        pyramid.Mean(pyramid.over, px, radius_px, over_share);
-        for (int c = 0; c < 3; ++c)
-          if (over_share[c] > 1e-6f) channels |= ObservationBoundChannel(c);
-      }
+      for (int c = 0; c < 3; ++c)
+        if (over_share[c] > 1e-6f) channels |= ObservationBoundChannel(c);
       obs.flags = kObservationLowerBound | (channels == kObservationBoundChannels ? 0u : channels);
       confidence = geometric_confidence;
     } else if (confidence < o.min_confidence || confidence <= 0) {

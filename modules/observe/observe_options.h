@@ -11,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kObserveStage{
-    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 6};
+    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 7};
 
 struct ObserveOptions {
   double grazing_min_deg = 80.0;      // View angles beyond this (from the normal) get confidence 0.
@@ -22,7 +22,7 @@ struct ObserveOptions {
   double min_confidence = 0.05;       // Observations below this confidence are dropped.
   double footprint_scale = 1.0;       // Sampling footprint radius relative to the vertex's projected radius.
   double border_margin_px = 2.0;      // Projections closer than this to the image border are dropped.
-  double max_distrusted_share = 0.25;  // Footprints with a larger share of distrusted (clipped) pixels give no mean.
+  double max_distrusted_share = 0.25;  // Footprints with a larger share of distrusted pixels give no mean.
   std::string clipped_footprints = "lower_bound";  // What such footprints give: lower_bound or drop.
   std::string bound_channels = "clipped";  // Which channels of a lower bound are bounds: clipped or all.
 
@@ -54,7 +54,10 @@ struct ObserveOptions {
            "since the distrusted ones are the brightest (highlights) or the darkest, not a random share. What it "
            "gives instead is set by clipped_footprints. Observations under the share have their confidence lowered "
            "by it. 0 treats every footprint that touches a clipped pixel so; 1 averages the trusted pixels of all "
-           "(observe stage version 2). docs/RESULTS.md measures both ends.")
+           "(observe stage version 2). docs/RESULTS.md measures both ends. With clipped_footprints = lower_bound and "
+           "bound_channels = clipped, a footprint holding any over-exposed pixel is a lower bound in the channels "
+           "that clipped whatever this share (observe stage version 7): the share then governs only the pixels "
+           "distrusted for other reasons (black-clipped, next to a clipped pixel).")
         .Range(0, 1);
     t->Add("clipped_footprints", &clipped_footprints,
            "What a footprint over max_distrusted_share gives. lower_bound: the mean over all its pixels, clipped "
