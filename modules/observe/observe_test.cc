@@ -343,20 +343,28 @@ struct ClippedHighlight {
   }
 };
 
+// ClippedHighlight on the 21 × 21 grid, seen from above, with what ObservePhoto needs.
+struct ClippedHighlightScene {
+  TriangleMesh grid = Grid(21);
+  RayCaster caster{{&grid}};
+  ClippedHighlight images;
+  Image full = Image(160, 120, 1, 1.0f);  // full confidence, for the truth's reference means
+  ImageRecord pose = LookAt({0.3, -0.2, 3.0});
+  std::vector<float> radius = VertexFootprintRadius(grid);
+  ClippedHighlightScene(const std::array<float, 3>& true_rgb, const std::array<float, 3>& recorded_rgb)
+      : images(true_rgb, recorded_rgb) {}
+};
+
 // By default (clipped_footprints: lower_bound) a footprint over the share is
 // kept as a lower bound: the plain mean over its pixels, clipped ones at the
 // clip level. Checked against the mean of the unclipped truth over the same
 // footprint (the truth observed with full confidence): never above it, and
 // above the clip-free affine value (so the bound says more than "≥ 0").
 TEST_F(ObserveTest, ClippedFootprintsBecomeLowerBoundsOfTheTruth) {
-  const TriangleMesh grid = Grid(21);
-  const RayCaster caster({&grid});
   // The highlight's true radiance 3, recorded at the clip level 1.
-  const ClippedHighlight scene({3.0f, 3.0f, 3.0f}, {1.0f, 1.0f, 1.0f});
-  const Image &truth = scene.truth, &radiance = scene.radiance, &confidence = scene.confidence;
-  const Image full(160, 120, 1, 1.0f);
-  const ImageRecord pose = LookAt({0.3, -0.2, 3.0});
-  const std::vector<float> radius = VertexFootprintRadius(grid);
+  const ClippedHighlightScene scene({3.0f, 3.0f, 3.0f}, {1.0f, 1.0f, 1.0f});
+  const auto& [grid, caster, images, full, pose, radius] = scene;
+  const auto& [truth, radiance, confidence] = images;
   ObserveOptions o = options_;
   ASSERT_EQ(o.clipped_footprints, "lower_bound");  // the default
   size_t clipped = 0;
@@ -401,15 +409,11 @@ TEST_F(ObserveTest, ClippedFootprintsBecomeLowerBoundsOfTheTruth) {
 // measurements of the true mean. Without the level (older linearize stats), or
 // with bound_channels = all, all three channels are bounds.
 TEST_F(ObserveTest, OnlyTheChannelsThatClippedBecomeBounds) {
-  const TriangleMesh grid = Grid(21);
-  const RayCaster caster({&grid});
   const float clip_level = 1.0f;
   // Red: true radiance 3, recorded at the clip level; green and blue below it.
-  const ClippedHighlight scene({3.0f, 0.6f, 0.7f}, {clip_level, 0.6f, 0.7f});
-  const Image &truth = scene.truth, &radiance = scene.radiance, &confidence = scene.confidence;
-  const Image full(160, 120, 1, 1.0f);
-  const ImageRecord pose = LookAt({0.3, -0.2, 3.0});
-  const std::vector<float> radius = VertexFootprintRadius(grid);
+  const ClippedHighlightScene scene({3.0f, 0.6f, 0.7f}, {clip_level, 0.6f, 0.7f});
+  const auto& [grid, caster, images, full, pose, radius] = scene;
+  const auto& [truth, radiance, confidence] = images;
   PhotoView view{camera_, pose, &radiance, &confidence};
   view.overexposed_linear = clip_level;
   ObserveOptions o = options_;
@@ -466,13 +470,9 @@ TEST_F(ObserveTest, OnlyTheChannelsThatClippedBecomeBounds) {
 // at or below the truth, while the trusted-pixel means that version 6 reported
 // for the same footprints (the level unknown) fall well below it.
 TEST_F(ObserveTest, AFewOverExposedPixelsMakeABoundNotABiasedMean) {
-  const TriangleMesh grid = Grid(21);
-  const RayCaster caster({&grid});
-  const ClippedHighlight scene({5.0f, 0.6f, 0.7f}, {1.0f, 0.6f, 0.7f});
-  const Image &truth = scene.truth, &radiance = scene.radiance, &confidence = scene.confidence;
-  const Image full(160, 120, 1, 1.0f);
-  const ImageRecord pose = LookAt({0.3, -0.2, 3.0});
-  const std::vector<float> radius = VertexFootprintRadius(grid);
+  const ClippedHighlightScene scene({5.0f, 0.6f, 0.7f}, {1.0f, 0.6f, 0.7f});
+  const auto& [grid, caster, images, full, pose, radius] = scene;
+  const auto& [truth, radiance, confidence] = images;
   ObserveOptions o = options_;
   ASSERT_DOUBLE_EQ(o.max_distrusted_share, 0.25);  // the default
   PhotoView view{camera_, pose, &radiance, &confidence};
