@@ -164,7 +164,8 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
   if (known != nullptr && known->has_reflectance) {
     reflectance = known->reflectance;  // fixed, or a warm start
   } else {
-    reflectance = InitializeReflectance(obs, ctx.train_exact, nv, basis, spec.materials, o.seed);
+    reflectance =
+        InitializeReflectance(obs, ctx.train_exact, nv, basis, spec.materials, o.seed, o.init_gloss, &spec.lobe_enabled);
   }
   if (!(o.fixed_reflectance && known != nullptr && known->has_reflectance)) reflectance.lobe_enabled = spec.lobe_enabled;
   const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
@@ -358,6 +359,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   to.footprint_scale = summary.transport_footprint ? problem.footprint_scale : 0.0;
   to.max_coefficients = o.transport_max_coefficients;
   to.route = o.transport;
+  to.supersampling = o.transport_supersampling;
   const TransportStore transport = BuildTransport(problem.mesh, problem.visibility, obs, to);
   summary.transport_seconds = step.Seconds();
   summary.transport_coefficients = transport.num_coefficients();

@@ -78,7 +78,7 @@ void SeededKMeans(const cv::Mat& features, int k, int attempts, int seed, cv::Ma
 
 ReflectanceState InitializeReflectance(const ObservationSet& observations, const std::vector<uint32_t>& train,
                                        size_t num_vertices, const std::vector<BrdfLobe>& basis, int num_materials,
-                                       int seed) {
+                                       int seed, double gloss, const std::vector<char>* lobe_enabled) {
   ReflectanceState state;
   state.basis = basis;
   const int b_count = static_cast<int>(basis.size());
@@ -127,6 +127,15 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
     }
     if (lambert >= 0) {
       state.coefficients[m * b_count + lambert] = median.cwiseMax(1e-6);
+      // A neutral specular (dielectric highlights keep the light's colour),
+      // `gloss` of the diffuse luminance, shared by the enabled glossy lobes.
+      auto glossy = [&](int b) { return b != lambert && (lobe_enabled == nullptr || (*lobe_enabled)[b]); };
+      int num_glossy = 0;
+      for (int b = 0; b < b_count; ++b) num_glossy += glossy(b);
+      const double luminance = 0.2126 * median[0] + 0.7152 * median[1] + 0.0722 * median[2];
+      for (int b = 0; b < b_count; ++b)
+        if (gloss > 0 && glossy(b))
+          state.coefficients[m * b_count + b] = Eigen::Vector3d::Constant(gloss * luminance / num_glossy);
     } else {  // no diffuse lobe: start every lobe at the region's colour
       for (int b = 0; b < b_count; ++b) state.coefficients[m * b_count + b] = median.cwiseMax(1e-6);
     }

@@ -28,9 +28,12 @@ std::vector<float> ComputeLobeResponses(const TransportStore& transport, const O
                                         const std::vector<uint32_t>& ids, const LightingState& lighting);
 
 // k-means initialisation of materials and weights from the observations `train`.
+// `gloss` > 0 (not in the paper; inverse.init_gloss): every material also
+// starts with a neutral specular of `gloss` times its diffuse luminance,
+// shared evenly by the glossy lobes (those `lobe_enabled` keeps, when given).
 ReflectanceState InitializeReflectance(const ObservationSet& observations, const std::vector<uint32_t>& train,
                                        size_t num_vertices, const std::vector<BrdfLobe>& basis, int num_materials,
-                                       int seed);
+                                       int seed, double gloss = 0, const std::vector<char>* lobe_enabled = nullptr);
 
 // Initialisation from per-vertex fits (not in the paper): with the lighting
 // known or estimated, every vertex's reflectance is fitted on its own (a small

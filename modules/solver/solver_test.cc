@@ -188,6 +188,20 @@ TEST_F(SolverTest, VertexFitInitialisationSeparatesMaterialsOfOneHue) {
   EXPECT_LT(share.front(), 0.05) << "the matte material";
   EXPECT_GT(share.back(), 0.8) << "the polished material";
 
+  // inverse.init_gloss: the same k-means regions and diffuse colours, plus a grey
+  // specular of the given share of each diffuse luminance; a disabled lobe stays 0.
+  const ReflectanceState glossy = InitializeReflectance(obs, all, nv, to.basis, 2, 1, 0.4);
+  const std::vector<char> diffuse_only = {1, 0};
+  const ReflectanceState disabled = InitializeReflectance(obs, all, nv, to.basis, 2, 1, 0.4, &diffuse_only);
+  for (int m = 0; m < 2; ++m) {
+    const Eigen::Vector3d d = colour.coefficients[m * 2];
+    EXPECT_EQ(colour.coefficients[m * 2 + 1], Eigen::Vector3d::Zero());
+    EXPECT_EQ(glossy.coefficients[m * 2], d);
+    const double luminance = 0.2126 * d[0] + 0.7152 * d[1] + 0.0722 * d[2];
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(glossy.coefficients[m * 2 + 1][c], 0.4 * luminance, 1e-12);
+    EXPECT_EQ(disabled.coefficients[m * 2 + 1], Eigen::Vector3d::Zero());
+  }
+
   // And the whole known-lighting solve from it recovers the exact data's albedo.
   InverseOptions o = BaseOptions(basis);
   o.fixed_lighting = true;

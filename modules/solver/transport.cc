@@ -52,6 +52,14 @@ double LobeFootprintSpread(const BrdfLobe& lobe) {
   return std::sqrt(0.02) * sigma;
 }
 
+int TransportSupersampling(int visibility_resolution, int env_resolution, int requested) {
+  if (requested > 0) return requested;
+  // A hemi-octahedral texel of side N covers 2π/N² sr, a global octahedral one
+  // of side M covers 4π/M²: equal density at M = √2 N. One sample per global
+  // texel side or better.
+  return std::max(1, static_cast<int>(std::ceil(env_resolution / (std::sqrt(2.0) * visibility_resolution) - 1e-9)));
+}
+
 TransportStore::Row TransportStore::Get(size_t observation, uint32_t vertex, int lobe) const {
   const size_t r = view_dependent_[lobe] ? vertex_rows_ + observation * num_dependent_ + slot_[lobe]
                                          : size_t(vertex) * num_independent_ + slot_[lobe];
@@ -223,8 +231,16 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
   }
 
   const int n_local = visibility.resolution;
-  const std::vector<Eigen::Vector3d> local_dirs = HemiOctTexelDirections(n_local);
-  const std::vector<double> local_solid_angles = HemiOctTexelSolidAngles(n_local);
+  // Haar pixel route: each visibility texel is integrated over `sub`² sub-texels
+  // (TransportSupersampling), so the splats resolve the global map's texels.
+  const int sub = haar && o.route == "pixel" ? TransportSupersampling(n_local, n_global, o.supersampling) : 1;
+  const int n_sample = sub * n_local;
+  const std::vector<Eigen::Vector3d> local_dirs = HemiOctTexelDirections(n_sample);
+  const std::vector<double> local_solid_angles = HemiOctTexelSolidAngles(n_sample);
+  // Sample j's visibility texel.
+  std::vector<int> parent_texel(local_dirs.size());
+  for (int y = 0; y < n_sample; ++y)
+    for (int x = 0; x < n_sample; ++x) parent_texel[size_t(y) * n_sample + x] = (y / sub) * n_local + x / sub;
   std::vector<double> half_cutoff(num_lobes), mirror_cutoff(num_lobes);
   for (int b = 0; b < num_lobes; ++b) {
     half_cutoff[b] = LobeHalfVectorCutoff(o.basis[b]);
@@ -342,7 +358,7 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
         t.splat_weight.resize(local_dirs.size());
       }
       for (size_t j = 0; j < local_dirs.size(); ++j) {
-        const float vj = std::clamp(vis[j], 0.0f, 1.0f);
+        const float vj = std::clamp(vis[parent_texel[j]], 0.0f, 1.0f);
         if (vj <= 1e-4f) continue;
         const Eigen::Vector3f d = local_dirs[j].cast<float>();
         t.dir_local[j] = d;

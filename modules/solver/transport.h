@@ -11,6 +11,8 @@
 // bilinear weights onto the global octahedral map (the same bilinear
 // reconstruction the recovered maps are rendered with), and the result is
 // Haar-transformed and truncated to the coefficients carrying its energy.
+// When the global map is finer than the visibility map, each visibility
+// texel is sub-sampled (TransportSupersampling) so the splats resolve it.
 // Lambertian lobes do not depend on w_o and are stored once per vertex.
 // An observation is the photo's mean over a footprint (observe), not a point:
 // where the interpolated normals turn inside it, a narrow lobe's highlight is
@@ -59,7 +61,18 @@ struct TransportOptions {
   // samples the photo), with the interpolated normals of the mesh inside it,
   // instead of the vertex normal alone. 0 disables it.
   double footprint_scale = 1.0;
+  // Haar pixel route: sub-samples per visibility texel side (0: automatic,
+  // TransportSupersampling).
+  int supersampling = 0;
 };
+
+// Sub-samples per side of each visibility texel on the Haar pixel route: the
+// BRDF slice and the splat onto the global map are evaluated at `s`² points
+// of the texel (the texel's visibility held), so a global map finer than the
+// visibility map still gets one splat per global texel side. `requested` > 0
+// forces it; 0 picks the smallest s with s·N·√2 ≥ M (N the visibility side,
+// M the global side): 1 for the defaults (N = M = 32), 2 for M = 2N.
+int TransportSupersampling(int visibility_resolution, int env_resolution, int requested);
 
 // Normals sampled over each vertex's footprint, in the vertex's local frame,
 // with quadrature weights summing to 1: the centre (weight 1/3) and one point
