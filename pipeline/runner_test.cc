@@ -152,11 +152,17 @@ TEST_F(RunnerTest, RawInputsEnterKeysByContent) {
 TEST_F(RunnerTest, KilledStageResumesPerItemAndKeepsFinishedStages) {
   const std::string slow = base_ + "beta.items: 40\nbeta.sleep_ms: 50\n";
   std::atomic<bool> stop{false};
+  // The cache exists before the watcher walks it; the walk itself races the
+  // runner's atomic renames, so a directory vanishing mid-walk only restarts it.
+  fs::create_directories(dir_ / "ws/cache");
   std::thread killer([&] {
     // Kill beta once it has written a few items.
     while (!stop) {
-      for (const auto& e : fs::recursive_directory_iterator(dir_ / "ws/cache", fs::directory_options::skip_permission_denied)) {
-        if (e.path().filename() == "item_5.txt" && e.path().string().find("/beta/") != std::string::npos) {
+      std::error_code ec;
+      fs::recursive_directory_iterator it(dir_ / "ws/cache", fs::directory_options::skip_permission_denied, ec);
+      for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+        const fs::path& path = it->path();
+        if (path.filename() == "item_5.txt" && path.string().find("/beta/") != std::string::npos) {
           testing::RunCommand("pkill -9 -f test_stage_beta");
           return;
         }
@@ -164,7 +170,6 @@ TEST_F(RunnerTest, KilledStageResumesPerItemAndKeepsFinishedStages) {
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   });
-  fs::create_directories(dir_ / "ws/cache");
   auto killed = Run(slow);
   stop = true;
   killer.join();
