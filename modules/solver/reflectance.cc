@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "solver/lighting.h"
 #include "solver/qp.h"
+#include "sphere/envmap.h"
 
 namespace relight {
 
@@ -112,6 +113,9 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
   SeededKMeans(features, observed.size() >= static_cast<size_t>(k) ? k : 1, 4, seed, &labels, &centers);
   // Each region's median colour is its material's diffuse colour.
   const int lambert = FirstLambertian(basis);
+  auto glossy = [&](int b) { return b != lambert && (lobe_enabled == nullptr || (*lobe_enabled)[b]); };
+  int num_glossy = 0;
+  for (int b = 0; b < b_count; ++b) num_glossy += glossy(b);
   state.coefficients.assign(size_t(k) * b_count, Eigen::Vector3d::Zero());
   for (int m = 0; m < k; ++m) {
     std::array<std::vector<double>, 3> channel;
@@ -129,13 +133,9 @@ ReflectanceState InitializeReflectance(const ObservationSet& observations, const
       state.coefficients[m * b_count + lambert] = median.cwiseMax(1e-6);
       // A neutral specular (dielectric highlights keep the light's colour),
       // `gloss` of the diffuse luminance, shared by the enabled glossy lobes.
-      auto glossy = [&](int b) { return b != lambert && (lobe_enabled == nullptr || (*lobe_enabled)[b]); };
-      int num_glossy = 0;
-      for (int b = 0; b < b_count; ++b) num_glossy += glossy(b);
-      const double luminance = 0.2126 * median[0] + 0.7152 * median[1] + 0.0722 * median[2];
       for (int b = 0; b < b_count; ++b)
         if (gloss > 0 && glossy(b))
-          state.coefficients[m * b_count + b] = Eigen::Vector3d::Constant(gloss * luminance / num_glossy);
+          state.coefficients[m * b_count + b] = Eigen::Vector3d::Constant(gloss * Luminance(median) / num_glossy);
     } else {  // no diffuse lobe: start every lobe at the region's colour
       for (int b = 0; b < b_count; ++b) state.coefficients[m * b_count + b] = median.cwiseMax(1e-6);
     }

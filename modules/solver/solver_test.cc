@@ -16,6 +16,7 @@
 #include "solver/lobe_spec.h"
 #include "solver/reflectance.h"
 #include "solver/transport.h"
+#include "sphere/envmap.h"
 #include "sphere/frame.h"
 #include "sphere/octahedral.h"
 #include "wavelet/haar.h"
@@ -197,8 +198,7 @@ TEST_F(SolverTest, VertexFitInitialisationSeparatesMaterialsOfOneHue) {
     const Eigen::Vector3d d = colour.coefficients[m * 2];
     EXPECT_EQ(colour.coefficients[m * 2 + 1], Eigen::Vector3d::Zero());
     EXPECT_EQ(glossy.coefficients[m * 2], d);
-    const double luminance = 0.2126 * d[0] + 0.7152 * d[1] + 0.0722 * d[2];
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(glossy.coefficients[m * 2 + 1][c], 0.4 * luminance, 1e-12);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(glossy.coefficients[m * 2 + 1][c], 0.4 * Luminance(d), 1e-12);
     EXPECT_EQ(disabled.coefficients[m * 2 + 1], Eigen::Vector3d::Zero());
   }
 
