@@ -20,6 +20,7 @@
 #include "sphere/envmap.h"
 #include "sphere/octahedral.h"
 #include "sphere/sh.h"
+#include "wavelet/haar.h"
 
 namespace relight {
 namespace fs = std::filesystem;
@@ -123,6 +124,7 @@ struct ModelSpec {
   int solve_resolution = 0;        // haar: lighting solved at this resolution (0: full)
   int max_iterations = 6;
   int coarse_iterations = 3;
+  double init_gloss = 0;           // neutral specular share of the colour start (inverse.init_gloss)
 };
 
 struct AlternationResult {
@@ -165,7 +167,7 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
     reflectance = known->reflectance;  // fixed, or a warm start
   } else {
     reflectance =
-        InitializeReflectance(obs, ctx.train_exact, nv, basis, spec.materials, o.seed, o.init_gloss, &spec.lobe_enabled);
+        InitializeReflectance(obs, ctx.train_exact, nv, basis, spec.materials, o.seed, spec.init_gloss, &spec.lobe_enabled);
   }
   if (!(o.fixed_reflectance && known != nullptr && known->has_reflectance)) reflectance.lobe_enabled = spec.lobe_enabled;
   const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
@@ -403,6 +405,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   spec.materials = known != nullptr && known->has_reflectance ? known->reflectance.num_materials : o.materials;
   spec.max_iterations = o.max_iterations;
   spec.coarse_iterations = o.coarse_iterations;
+  spec.init_gloss = o.init_gloss.front();
   // With known lighting only the reflectance model (materials, lobes) is selected.
   const bool can_select =
       o.select_model && !o.fixed_reflectance && !o.start_from_truth && !ctx.holdout.empty();
@@ -488,7 +491,39 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
     RLOG_INFO("model selection chose {} ({:.1f} s)", summary.chosen_model, summary.selection_seconds);
   }
 
-  AlternationResult final_result = Alternate(ctx, spec, "alternation");
+  // Starting points (inverse.init_gloss): each runs the whole alternation; the lowest held-out error wins.
+  // A known reflectance is its own start.
+  const bool known_start = known != nullptr && known->has_reflectance;
+  const std::vector<double> starts = known_start ? std::vector<double>{0.0} : o.init_gloss;
+  AlternationResult final_result;
+  size_t chosen_start = 0;
+  for (size_t k = 0; k < starts.size(); ++k) {
+    ModelSpec start_spec = spec;
+    start_spec.init_gloss = starts[k];
+    std::string label = "alternation";
+    if (starts.size() > 1) {
+      label += " (start " + std::to_string(k + 1) + "/" + std::to_string(starts.size()) + ")";
+      RLOG_INFO("start {}/{}: init_gloss {}", k + 1, starts.size(), starts[k]);
+    }
+    Timer start_timer;
+    AlternationResult r = Alternate(ctx, start_spec, label);
+    StartRecord rec;
+    rec.init_gloss = known_start ? 0.0 : starts[k];
+    rec.score = r.best_score;
+    rec.best_iteration = r.best_iteration;
+    rec.iterations = static_cast<int>(r.iterations.size());
+    rec.seconds = start_timer.Seconds();
+    summary.starts.push_back(rec);
+    if (starts.size() > 1) {
+      RLOG_INFO("start {}/{} (init_gloss {}): {} RMSE {:.5g} at iteration {}", k + 1, starts.size(), starts[k],
+                ctx.holdout.empty() ? "training" : "held-out", r.best_score, r.best_iteration);
+    }
+    if (k == 0 || r.best_score < final_result.best_score) {
+      final_result = std::move(r);
+      chosen_start = k;
+    }
+  }
+  summary.starts[chosen_start].chosen = true;
   result.lighting = std::move(final_result.lighting);
   result.reflectance = std::move(final_result.reflectance);
   summary.iterations = std::move(final_result.iterations);
@@ -617,6 +652,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   EnsureDir(JoinPath(output_dir, "envmaps"));
   const int n_out = o.lighting_basis == "haar" ? o.env_resolution : 32;
   Json photos_json = Json::array();
+  std::vector<double> coefficients_99;  // per photo (haar)
   for (const auto& photo : problem.photos) {
     const std::string stem = fs::path(photo.name).stem().string();
     const std::vector<float> rgb = result.lighting.OctahedralRgb(static_cast<int>(photo.index), n_out);
@@ -637,11 +673,24 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
       }
     }
     const Eigen::Vector3d dir = OctTexelDirection(best % n_out, best / n_out, n_out);
-    photos_json.push_back({{"index", photo.index},
-                           {"name", photo.name},
-                           {"envmap_oct", "envmaps/" + stem + "_oct.exr"},
-                           {"envmap_latlong", "envmaps/" + stem + "_latlong.exr"},
-                           {"brightest_direction_world", {dir.x(), dir.y(), dir.z()}}});
+    Json entry = {{"index", photo.index},
+                  {"name", photo.name},
+                  {"envmap_oct", "envmaps/" + stem + "_oct.exr"},
+                  {"envmap_latlong", "envmaps/" + stem + "_latlong.exr"},
+                  {"brightest_direction_world", {dir.x(), dir.y(), dir.z()}}};
+    if (o.lighting_basis == "haar") {
+      // How many wavelet coefficients the map uses: the fewest holding 99% of its luminance's
+      // detail energy (the mean, coefficient 0, left out).
+      std::vector<float> lum(size_t(n_out) * n_out);
+      for (size_t k = 0; k < lum.size(); ++k)
+        lum[k] = static_cast<float>(Luminance(Eigen::Vector3d(oct.pixels[k * 3], oct.pixels[k * 3 + 1], oct.pixels[k * 3 + 2])));
+      HaarForward(lum.data(), n_out, lum.data());
+      lum[0] = 0.0f;
+      const size_t used = KeepEnergy(lum.data(), n_out, 0.99).size();
+      entry["haar_coefficients_99"] = used;
+      coefficients_99.push_back(static_cast<double>(used));
+    }
+    photos_json.push_back(entry);
   }
   WriteJsonAtomic(JoinPath(output_dir, "lighting.json"),
                   Json{{"basis", o.lighting_basis}, {"env_resolution", n_out}, {"photos", photos_json}});
@@ -698,6 +747,18 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   j["best_iteration"] = s.best_iteration;
   j["stop_reason"] = s.stop_reason;
   j["model"] = s.chosen_model;
+  {
+    Json starts = Json::array();
+    for (const auto& st : s.starts) {
+      starts.push_back({{"init_gloss", st.init_gloss},
+                        {"score", st.score},
+                        {"best_iteration", st.best_iteration},
+                        {"iterations", st.iterations},
+                        {"seconds", st.seconds},
+                        {"chosen", st.chosen}});
+    }
+    j["starts"] = starts;
+  }
   if (!s.candidates.empty()) {
     Json cands = Json::array();
     for (const auto& c : s.candidates) {
@@ -711,6 +772,11 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
                        {"chosen", c.chosen}});
     }
     j["model_selection"] = {{"seconds", s.selection_seconds}, {"candidates", cands}};
+  }
+  if (!coefficients_99.empty()) {
+    std::nth_element(coefficients_99.begin(), coefficients_99.begin() + coefficients_99.size() / 2,
+                     coefficients_99.end());
+    j["lighting_coefficients_99_median"] = coefficients_99[coefficients_99.size() / 2];
   }
   j["gauge"] = o.gauge;
   j["seconds"] = s.seconds;

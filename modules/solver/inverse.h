@@ -65,6 +65,16 @@ struct ModelCandidate {
   bool chosen = false;
 };
 
+// One starting point of the alternation (inverse.init_gloss).
+struct StartRecord {
+  double init_gloss = 0;
+  double score = 0;             // held-out RMSE of its best iterate (training RMSE without a hold-out)
+  int best_iteration = 0;
+  int iterations = 0;
+  double seconds = 0;
+  bool chosen = false;
+};
+
 struct InverseSummary {
   std::vector<IterationRecord> iterations;
   int best_iteration = 0;
@@ -78,6 +88,7 @@ struct InverseSummary {
   double lower_bounds_missed = 0;          // share of training bound channels the final model stays >1% below
   double lower_bounds_mean_shortfall = 0;  // over those, mean (y − ŷ) / y
   std::string stop_reason;
+  std::vector<StartRecord> starts;         // every start of the final model (one unless inverse.init_gloss lists several)
   std::vector<ModelCandidate> candidates;  // model selection: every model tried
   std::string chosen_model;                // the model of the final solve
   double selection_seconds = 0;

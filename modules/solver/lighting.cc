@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
+#include <mutex>
 
 #include "core/error.h"
 #include "core/timer.h"
@@ -49,6 +51,60 @@ std::vector<double> RobustWeights(const std::vector<double>& residuals, const st
     w[k] = loss == "huber" ? (r <= 1 ? 1.0 : 1.0 / r) : 1.0 / (1.0 + r * r);
   }
   return w;
+}
+
+namespace {
+
+// The orthonormal Haar basis functions of an n x n map (wavelet/haar.h), as
+// sparse pixel vectors: basis[k] lists (pixel, value) of coefficient k.
+struct SparseHaarBasis {
+  std::vector<std::vector<std::pair<int, double>>> functions;
+};
+
+const SparseHaarBasis& HaarBasisOf(int n) {
+  static std::mutex mutex;
+  static std::map<int, SparseHaarBasis> cache;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto it = cache.find(n);
+  if (it != cache.end()) return it->second;
+  SparseHaarBasis& basis = cache[n];
+  const int dim = n * n;
+  basis.functions.resize(dim);
+  std::vector<double> unit(dim), pixels(dim);
+  for (int k = 0; k < dim; ++k) {
+    std::fill(unit.begin(), unit.end(), 0.0);
+    unit[k] = 1.0;
+    HaarInverse(unit.data(), n, pixels.data());
+    for (int p = 0; p < dim; ++p)
+      if (pixels[p] != 0.0) basis.functions[k].push_back({p, pixels[p]});
+  }
+  return basis;
+}
+
+}  // namespace
+
+Eigen::MatrixXd HaarL1Penalty(const std::array<const float*, 3>& maps, int n, double floor_fraction) {
+  const int dim = n * n;
+  Eigen::MatrixXd penalty = Eigen::MatrixXd::Zero(dim, dim);
+  std::array<std::vector<double>, 3> coeffs;
+  double mean = 0;
+  for (int c = 0; c < 3; ++c) {
+    coeffs[c].assign(maps[c], maps[c] + dim);
+    HaarForward(coeffs[c].data(), n, coeffs[c].data());
+    mean += coeffs[c][0] / n / 3.0;  // index 0 is n * the map's mean
+  }
+  if (!(mean > 0)) return penalty;  // no map yet: nothing to reweight from
+  const SparseHaarBasis& basis = HaarBasisOf(n);
+  const double floor = floor_fraction * mean;
+  for (int k = 1; k < dim; ++k) {  // the scaling coefficient (the mean) is not penalised
+    double g2 = 0;
+    for (int c = 0; c < 3; ++c) g2 += coeffs[c][k] * coeffs[c][k];
+    const double weight = mean / std::max(floor, std::sqrt(g2 / 3.0));
+    const auto& f = basis.functions[k];
+    for (const auto& [p, vp] : f)
+      for (const auto& [q, vq] : f) penalty(p, q) += weight * vp * vq;
+  }
+  return penalty;
 }
 
 namespace {
@@ -182,9 +238,11 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
     for (int pass = 0; pass < options.irls_iterations; ++pass) {
       std::vector<double> residual(rows, 0.0);
       double sse = 0, wsum = 0;
+      // Warm start: the current map, block-averaged to the solve resolution.
+      std::array<Eigen::VectorXd, 3> start;
       for (int c = 0; c < 3; ++c) {
-        // Warm start: the current map, block-averaged to the solve resolution.
-        Eigen::VectorXd x(dim);
+        Eigen::VectorXd& x = start[c];
+        x.resize(dim);
         if (block == 1) {
           x = Eigen::Map<const Eigen::VectorXf>(lighting->values[i][c].data(), dim).cast<double>();
         } else {
@@ -196,6 +254,17 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
             x[k] = sum / (block * block);
           }
         }
+      }
+      // Group-sparse Haar prior, reweighted from the warm start (IRLS on the L1 norm).
+      Eigen::MatrixXd sparsity_penalty;
+      if (haar && options.wavelet_sparsity > 0) {
+        std::array<std::vector<float>, 3> maps;
+        for (int c = 0; c < 3; ++c) maps[c].assign(start[c].data(), start[c].data() + dim);
+        sparsity_penalty = HaarL1Penalty({maps[0].data(), maps[1].data(), maps[2].data()}, n,
+                                         options.wavelet_sparsity_floor);
+      }
+      for (int c = 0; c < 3; ++c) {
+        Eigen::VectorXd x = start[c];
         Eigen::MatrixXd q_exact;
         Eigen::VectorXd rhs_exact;
         accumulate(c, exact_rows[c], &q_exact, &rhs_exact);
@@ -226,6 +295,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
             rhs += rhs_active;
           }
           q_mat += lambda * regularizer;
+          if (sparsity_penalty.size() > 0) q_mat += (options.wavelet_sparsity * diagonal_max) * sparsity_penalty;
           // A vanishing ridge keeps texels no observation sees well-posed (they stay at the smooth fill-in).
           q_mat.diagonal().array() += 1e-9 * diagonal_max;
           if (haar) {

@@ -12,6 +12,7 @@
 // is solved again until that set stops changing (at most 16 rounds).
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "solver/inverse_options.h"
@@ -37,6 +38,13 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
 
 // Dense Δ^T Δ of the graph Laplacian of an n×n octahedral grid (4-neighbours across the folds).
 Eigen::MatrixXd OctahedralLaplacianGram(int n);
+
+// Reweighted group-L1 penalty of the maps' Haar coefficients (the RGB
+// channels share a weight per coefficient): Wᵀ diag(m / max(f·m, |h_k|)) W in
+// the pixel domain, with h the orthonormal Haar coefficients of `maps` (three
+// n×n channels), m their mean radiance and f `floor_fraction`; the scaling
+// coefficient is not penalised. Zero when the maps are zero.
+Eigen::MatrixXd HaarL1Penalty(const std::array<const float*, 3>& maps, int n, double floor_fraction);
 
 // Robust IRLS weights of residual magnitudes (huber, cauchy; none gives 1).
 std::vector<double> RobustWeights(const std::vector<double>& residuals, const std::string& loss, double scale);

@@ -37,10 +37,13 @@ QpSummary SolveNonNegativeQp(const Eigen::MatrixXd& Q, const Eigen::VectorXd& q,
   const double scale = 1.0 + q.norm();
   std::vector<Eigen::Index> free_index;
   free_index.reserve(n);
-  double f = Objective(Q, q, x);
+  // The gradient is carried along (g ← g + QΔ); each iteration costs one product Q·d, and every
+  // trial of the line search only the columns of the variables its projection clipped.
+  Eigen::VectorXd g = Q * x - q;
+  double f = 0.5 * x.dot(g - q);  // ½xᵀQx − qᵀx = ½xᵀ(g − q)
+  std::vector<Eigen::Index> clipped;
   for (int iter = 0; iter < max_iterations; ++iter) {
     summary.iterations = iter + 1;
-    const Eigen::VectorXd g = Q * x - q;
     summary.projected_gradient_norm = ProjectedGradientNorm(x, g);
     if (summary.projected_gradient_norm <= tolerance * scale) {
       summary.converged = true;
@@ -72,26 +75,41 @@ QpSummary SolveNonNegativeQp(const Eigen::MatrixXd& Q, const Eigen::VectorXd& q,
       }
       for (Eigen::Index a = 0; a < m; ++a) d[free_index[a]] = df[a];
     }
-    // Variables in the binding set follow the negative gradient (scaled) so they can leave it.
-    // (They have g > 0 at x = 0, so the projection keeps them at 0.)
+    // Variables in the binding set keep d = 0 (they have g > 0 at x = 0, so they stay there).
+    // Projected Armijo search on x(t) = max(0, x + t d): Δ = t d + c, c non-zero only where the
+    // projection clipped, so QΔ = t Qd + Q c and f(x + Δ) = f + gᵀΔ + ½ΔᵀQΔ.
+    const Eigen::VectorXd qd = Q * d;
     double t = 1.0;
-    Eigen::VectorXd x_new;
+    Eigen::VectorXd delta(n), q_delta(n);
     double f_new = f;
     bool accepted = false;
     for (int ls = 0; ls < 40; ++ls) {
-      x_new = (x + t * d).cwiseMax(0.0);
-      f_new = Objective(Q, q, x_new);
-      if (f_new <= f + 1e-4 * g.dot(x_new - x)) {
+      clipped.clear();
+      for (Eigen::Index k = 0; k < n; ++k) {
+        const double v = x[k] + t * d[k];
+        if (v < 0) {
+          delta[k] = -x[k];
+          clipped.push_back(k);
+        } else {
+          delta[k] = t * d[k];
+        }
+      }
+      q_delta = t * qd;
+      for (Eigen::Index k : clipped) q_delta += (-x[k] - t * d[k]) * Q.col(k);
+      f_new = f + g.dot(delta) + 0.5 * delta.dot(q_delta);
+      if (f_new <= f + 1e-4 * g.dot(delta)) {
         accepted = true;
         break;
       }
       t *= 0.5;
     }
-    if (!accepted || (x_new - x).norm() <= 1e-15 * (1.0 + x.norm())) {
+    if (!accepted || delta.norm() <= 1e-15 * (1.0 + x.norm())) {
       summary.converged = summary.projected_gradient_norm <= 1e-6 * scale;
       break;
     }
-    x = x_new;
+    x += delta;
+    for (Eigen::Index k : clipped) x[k] = 0.0;  // exactly on the bound
+    g += q_delta;
     f = f_new;
   }
   summary.objective = Objective(Q, q, x);

@@ -62,6 +62,7 @@ void BM_SolveMinerva(benchmark::State& state) {
   const auto& best = r.summary.iterations[r.summary.best_iteration - 1];
   state.counters["vertices"] = static_cast<double>(p.problem.mesh.num_vertices());
   state.counters["observations"] = static_cast<double>(p.problem.observations.records.size());
+  state.counters["starts"] = static_cast<double>(r.summary.starts.size());
   state.counters["total_s"] = r.summary.seconds;
   state.counters["transport_s"] = r.summary.transport_seconds;
   state.counters["lighting_s"] = lighting_s;
@@ -84,6 +85,7 @@ void BM_LightingQp(benchmark::State& state) {
   o.materials = 6;
   o.max_iterations = 4;
   o.tolerance = 0;
+  o.init_gloss = {0};  // one start: this compares the lighting steps' solvers
   o.qp_solver = state.range(1) == 1 ? "ceres" : "projected_newton";
   if (state.range(1) >= 2) o.smoothness *= std::pow(10.0, double(state.range(1) - 1));  // stronger Laplacian
   InverseResult r;
