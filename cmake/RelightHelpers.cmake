@@ -39,13 +39,19 @@ function(relight_test)
   if(NOT RELIGHT_BUILD_TESTS)
     return()
   endif()
-  cmake_parse_arguments(ARG "" "NAME;TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  # COST: the test's wall time in seconds on a 2-core machine, so that a
+  # parallel ctest without timing history (a fresh CI clone) starts the long
+  # tests first instead of leaving one to run alone at the end.
+  cmake_parse_arguments(ARG "" "NAME;TIMEOUT;COST" "SOURCES;DEPS;LABELS" ${ARGN})
   _relight_deps_available(ok ${ARG_DEPS})
   if(NOT ok)
     return()
   endif()
   add_executable(${ARG_NAME} ${ARG_SOURCES})
   target_link_libraries(${ARG_NAME} PRIVATE ${ARG_DEPS} relight::testing GTest::gtest GTest::gtest_main)
+  if(NOT ARG_COST)
+    set(ARG_COST 10)
+  endif()
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
@@ -53,7 +59,7 @@ function(relight_test)
     set(ARG_TIMEOUT 600)
   endif()
   add_test(NAME ${ARG_NAME} COMMAND ${ARG_NAME} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
-  set_tests_properties(${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+  set_tests_properties(${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} COST ${ARG_COST}
     ENVIRONMENT "RELIGHT_SOURCE_DIR=${PROJECT_SOURCE_DIR};RELIGHT_BIN_DIR=${CMAKE_RUNTIME_OUTPUT_DIRECTORY};RELIGHT_SHARED_DATA_DIR=${RELIGHT_SHARED_DATA_DIR}")
 endfunction()
 

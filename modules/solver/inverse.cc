@@ -146,28 +146,42 @@ std::string DescribeSpec(const ModelSpec& spec, const std::vector<BrdfLobe>& bas
   return std::to_string(spec.materials) + " materials, " + lobes + ", env " + std::to_string(res) + "²";
 }
 
-// `progress_label`: when non-empty, a progress bar (with ETA) over the
-// iterations and one info line per iteration; model-selection candidates run quietly.
-AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, const std::string& progress_label = "") {
+// An alternation that can be paused between iterations and resumed
+// (inverse.start_race_iterations runs every start a few iterations, then
+// continues the best one). Everything one iteration needs from the previous
+// ones lives here.
+struct Alternation {
+  AlternationResult result;
+  LightingState best_lighting;
+  ReflectanceState best_reflectance;
+  std::vector<BrdfLobe> basis;
+  double previous_objective = -1;
+  double seconds = 0;           // time spent in iterations so far
+  int next_iteration = 0;
+  bool refit_initialisation = false;
+  bool finished = false;        // converged, fixed, or out of budget: no more iterations
+};
+
+// Sets up an alternation at its starting point (no iteration run yet).
+Alternation StartAlternation(const SolveContext& ctx, const ModelSpec& spec) {
   const InverseOptions& o = ctx.o;
   const ObservationSet& obs = ctx.problem.observations;
   const size_t nv = ctx.problem.mesh.num_vertices();
   const int num_photos = static_cast<int>(obs.num_photos);
   const KnownQuantities* known = ctx.known;
-  const std::vector<BrdfLobe> basis =
-      known != nullptr && known->has_reflectance ? known->reflectance.basis : ParseLobeSpecs(o.basis);
-  AlternationResult result;
-  LightingState& lighting = result.lighting;
+  Alternation a;
+  a.basis = known != nullptr && known->has_reflectance ? known->reflectance.basis : ParseLobeSpecs(o.basis);
+  LightingState& lighting = a.result.lighting;
   lighting.basis = o.lighting_basis;
   lighting.env_resolution = o.env_resolution;
   lighting.sh_order = o.sh_order;
   lighting.Resize(num_photos);
-  ReflectanceState& reflectance = result.reflectance;
+  ReflectanceState& reflectance = a.result.reflectance;
   if (known != nullptr && known->has_reflectance) {
     reflectance = known->reflectance;  // fixed, or a warm start
   } else {
-    reflectance =
-        InitializeReflectance(obs, ctx.train_exact, nv, basis, spec.materials, o.seed, spec.init_gloss, &spec.lobe_enabled);
+    reflectance = InitializeReflectance(obs, ctx.train_exact, nv, a.basis, spec.materials, o.seed, spec.init_gloss,
+                                        &spec.lobe_enabled);
   }
   if (!(o.fixed_reflectance && known != nullptr && known->has_reflectance)) reflectance.lobe_enabled = spec.lobe_enabled;
   const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
@@ -179,7 +193,29 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
     lighting.UpdateCoefficients();
   }
   const bool solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
-  bool refit_initialisation = solve_reflectance && o.init == "vertex_fits" && !(known != nullptr && known->has_reflectance);
+  a.refit_initialisation =
+      solve_reflectance && o.init == "vertex_fits" && !(known != nullptr && known->has_reflectance);
+  a.result.stop_reason = "max_iterations reached";
+  return a;
+}
+
+// Runs iterations of `a` until it finishes or `stop_before` iterations have run
+// (resume by calling again). `progress_label`: when non-empty, a progress bar
+// (with ETA) over the iterations and one info line per iteration; model-selection
+// candidates run quietly.
+void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alternation* a, int stop_before,
+                         const std::string& progress_label = "") {
+  const InverseOptions& o = ctx.o;
+  const ObservationSet& obs = ctx.problem.observations;
+  const size_t nv = ctx.problem.mesh.num_vertices();
+  const KnownQuantities* known = ctx.known;
+  const std::vector<BrdfLobe>& basis = a->basis;
+  AlternationResult& result = a->result;
+  LightingState& lighting = result.lighting;
+  ReflectanceState& reflectance = result.reflectance;
+  const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
+  const bool solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
+  bool& refit_initialisation = a->refit_initialisation;
   // Robust reweighting of the reflectance step (nothing to reweight when the reflectance is fixed).
   const bool use_robust = solve_reflectance && o.robust_reflectance && o.robust_loss != "none";
   const TransportStore& transport = ctx.transport;
@@ -188,18 +224,20 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
   // active sets (MetLowerBounds), refreshed before every materials and weights solve.
   const bool has_bounds = ctx.train_exact.size() < train.size();
 
-  LightingState best_lighting;
-  ReflectanceState best_reflectance;
-  double previous_objective = -1;
+  LightingState& best_lighting = a->best_lighting;
+  ReflectanceState& best_reflectance = a->best_reflectance;
+  double& previous_objective = a->previous_objective;
   Timer total;
   Timer step;
-  result.stop_reason = "max_iterations reached";
   // Alternating least squares converges slowly along the bilinear valley; an
   // extrapolated step along the last update (Bro 1998, "line search" ALS) is
   // tried after every iteration and kept when it lowers the objective.
   std::unique_ptr<Progress> progress;
-  if (!progress_label.empty()) progress = std::make_unique<Progress>(progress_label, spec.max_iterations);
-  for (int iter = 0; iter < spec.max_iterations; ++iter) {
+  const int last = std::min(spec.max_iterations, stop_before);
+  if (!progress_label.empty() && !a->finished && a->next_iteration < last)
+    progress = std::make_unique<Progress>(progress_label, last - a->next_iteration);
+  for (int iter = a->next_iteration; iter < last && !a->finished; ++iter) {
+    a->next_iteration = iter + 1;
     IterationRecord rec;
     rec.iteration = iter + 1;
     const LightingState prev_lighting = lighting;
@@ -308,22 +346,40 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
     }
     if (previous_objective > 0 && std::abs(previous_objective - sse) <= o.tolerance * previous_objective) {
       result.stop_reason = "objective changed by less than inverse.tolerance";
+      a->finished = true;
       break;
     }
     if (!solve_reflectance) {
       result.stop_reason = solve_lighting ? "the reflectance is fixed: a single lighting solve suffices"
                                           : "lighting and reflectance are fixed: the ground truth is scored";
+      a->finished = true;
       break;
     }
-    if (o.time_budget_s > 0 && total.Seconds() > o.time_budget_s) {
+    if (o.time_budget_s > 0 && a->seconds + total.Seconds() > o.time_budget_s) {
       result.stop_reason = "inverse.time_budget_s reached";
+      a->finished = true;
       break;
     }
     previous_objective = sse;
   }
-  lighting = std::move(best_lighting);
-  reflectance = std::move(best_reflectance);
+  a->seconds += total.Seconds();
+  if (a->next_iteration >= spec.max_iterations) a->finished = true;
+}
+
+// The best iterate of a finished (or abandoned) alternation.
+AlternationResult FinishAlternation(Alternation* a) {
+  AlternationResult result = std::move(a->result);
+  if (!result.iterations.empty()) {
+    result.lighting = std::move(a->best_lighting);
+    result.reflectance = std::move(a->best_reflectance);
+  }
   return result;
+}
+
+AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, const std::string& progress_label = "") {
+  Alternation a = StartAlternation(ctx, spec);
+  ContinueAlternation(ctx, spec, &a, spec.max_iterations, progress_label);
+  return FinishAlternation(&a);
 }
 
 }  // namespace
@@ -495,34 +551,59 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   // A known reflectance is its own start.
   const bool known_start = known != nullptr && known->has_reflectance;
   const std::vector<double> starts = known_start ? std::vector<double>{0.0} : o.init_gloss;
-  AlternationResult final_result;
-  size_t chosen_start = 0;
+  // inverse.start_race_iterations > 0: every start runs that many iterations, and only the one with
+  // the lowest held-out error so far goes on (successive halving down to one).
+  const bool race = starts.size() > 1 && o.start_race_iterations > 0 && o.start_race_iterations < spec.max_iterations;
+  std::vector<Alternation> alternations;
+  std::vector<ModelSpec> start_specs;
+  std::vector<double> start_seconds(starts.size(), 0.0);
+  auto start_label = [&](size_t k) {
+    return starts.size() > 1 ? "alternation (start " + std::to_string(k + 1) + "/" + std::to_string(starts.size()) + ")"
+                             : std::string("alternation");
+  };
   for (size_t k = 0; k < starts.size(); ++k) {
     ModelSpec start_spec = spec;
     start_spec.init_gloss = starts[k];
-    std::string label = "alternation";
-    if (starts.size() > 1) {
-      label += " (start " + std::to_string(k + 1) + "/" + std::to_string(starts.size()) + ")";
-      RLOG_INFO("start {}/{}: init_gloss {}", k + 1, starts.size(), starts[k]);
-    }
+    if (starts.size() > 1) RLOG_INFO("start {}/{}: init_gloss {}", k + 1, starts.size(), starts[k]);
     Timer start_timer;
-    AlternationResult r = Alternate(ctx, start_spec, label);
+    Alternation alt = StartAlternation(ctx, start_spec);
+    ContinueAlternation(ctx, start_spec, &alt, race ? o.start_race_iterations : spec.max_iterations, start_label(k));
+    start_seconds[k] = start_timer.Seconds();
+    if (starts.size() > 1) {
+      RLOG_INFO("start {}/{} (init_gloss {}): {} RMSE {:.5g} at iteration {}{}", k + 1, starts.size(), starts[k],
+                ctx.holdout.empty() ? "training" : "held-out", alt.result.best_score, alt.result.best_iteration,
+                race ? " (race)" : "");
+    }
+    alternations.push_back(std::move(alt));
+    start_specs.push_back(start_spec);
+  }
+  size_t chosen_start = 0;
+  for (size_t k = 1; k < starts.size(); ++k)
+    if (alternations[k].result.best_score < alternations[chosen_start].result.best_score) chosen_start = k;
+  if (race) {
+    RLOG_INFO("start {}/{} (init_gloss {}) leads after {} iterations; continuing it", chosen_start + 1, starts.size(),
+              starts[chosen_start], o.start_race_iterations);
+    Timer continue_timer;
+    ContinueAlternation(ctx, start_specs[chosen_start], &alternations[chosen_start], spec.max_iterations,
+                        start_label(chosen_start));
+    start_seconds[chosen_start] += continue_timer.Seconds();
+  }
+  for (size_t k = 0; k < starts.size(); ++k) {
+    const AlternationResult& r = alternations[k].result;
     StartRecord rec;
     rec.init_gloss = known_start ? 0.0 : starts[k];
     rec.score = r.best_score;
     rec.best_iteration = r.best_iteration;
     rec.iterations = static_cast<int>(r.iterations.size());
-    rec.seconds = start_timer.Seconds();
+    rec.seconds = start_seconds[k];
+    for (const IterationRecord& it : r.iterations) {
+      rec.train_rmse.push_back(it.train_rmse);
+      rec.holdout_rmse.push_back(it.holdout_rmse);
+    }
     summary.starts.push_back(rec);
-    if (starts.size() > 1) {
-      RLOG_INFO("start {}/{} (init_gloss {}): {} RMSE {:.5g} at iteration {}", k + 1, starts.size(), starts[k],
-                ctx.holdout.empty() ? "training" : "held-out", r.best_score, r.best_iteration);
-    }
-    if (k == 0 || r.best_score < final_result.best_score) {
-      final_result = std::move(r);
-      chosen_start = k;
-    }
   }
+  AlternationResult final_result = FinishAlternation(&alternations[chosen_start]);
+  alternations.clear();
   summary.starts[chosen_start].chosen = true;
   result.lighting = std::move(final_result.lighting);
   result.reflectance = std::move(final_result.reflectance);
@@ -755,6 +836,8 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
                         {"best_iteration", st.best_iteration},
                         {"iterations", st.iterations},
                         {"seconds", st.seconds},
+                        {"train_rmse", st.train_rmse},
+                        {"holdout_rmse", st.holdout_rmse},
                         {"chosen", st.chosen}});
     }
     j["starts"] = starts;

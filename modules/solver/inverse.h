@@ -70,8 +70,10 @@ struct StartRecord {
   double init_gloss = 0;
   double score = 0;             // held-out RMSE of its best iterate (training RMSE without a hold-out)
   int best_iteration = 0;
-  int iterations = 0;
+  int iterations = 0;                // iterations run (fewer than the others' when it lost a race)
   double seconds = 0;
+  std::vector<double> train_rmse;    // per iteration run
+  std::vector<double> holdout_rmse;  // per iteration run (0 without a hold-out)
   bool chosen = false;
 };
 

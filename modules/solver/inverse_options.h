@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 8};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 9};
 
 struct InverseOptions {
   // Lighting representation.
@@ -30,6 +30,7 @@ struct InverseOptions {
   int materials = 6;                    // materials (k-means regions at initialisation)
   std::string init = "colour";          // colour (k-means on mean colours, the paper) or vertex_fits
   std::vector<double> init_gloss = {0, 0.4};  // starts: neutral specular share of each material (0: the paper's)
+  int start_race_iterations = 4;        // every start runs this many iterations, the best goes on (0: all run fully)
   double sparsity = 1e-3;               // penalty on the sum of per-vertex weights (favours few materials)
   double weight_smoothness = 0.01;      // pull of a vertex's weights towards its neighbours'
 
@@ -117,6 +118,13 @@ struct InverseOptions {
            "ends 0.65 dB of joint relighting above 0, on synthetic_tiny 0.7 dB below, and the held-out error ranks "
            "them as relighting does (docs/RESULTS.md items 19-20). Unused with a known reflectance.")
         .Range(0, 10);
+    t->Add("start_race_iterations", &start_race_iterations,
+           "With several starts (inverse.init_gloss): run every start this many iterations, then continue only the "
+           "one with the lowest held-out error so far (0: every start runs the whole alternation). The default, the "
+           "first full-resolution iteration after inverse.coarse_iterations, kept the start the full runs keep on "
+           "the three synthetic scenes in about 0.6 of their alternation time (docs/RESULTS.md item 21); the "
+           "leader can change later, so 0 is the safe choice when time does not matter.")
+        .Range(0, 1000);
     t->Add("sparsity", &sparsity,
            "Penalty on the sum of a vertex's material weights, relative to its data term (favours few materials).")
         .Range(0, 1);

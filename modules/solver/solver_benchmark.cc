@@ -48,9 +48,16 @@ void BM_SolveMinerva(benchmark::State& state) {
   o.basis = {"lambertian", "ggx:0.08", "ggx:0.2", "ggx:0.4", "phong:50", "phong:200", "phong:500"};
   o.materials = 6;
   o.max_iterations = static_cast<int>(state.range(1));
+  o.start_race_iterations = static_cast<int>(state.range(2));
   o.tolerance = 0;
   InverseResult r;
   for (auto _ : state) r = SolveInverse(p.problem, o, nullptr);
+  for (size_t k = 0; k < r.summary.starts.size(); ++k) {
+    std::string curve;
+    for (double h : r.summary.starts[k].holdout_rmse) curve += fmt::format(" {:.6g}", h);
+    RLOG_INFO("start {} (init_gloss {}){}: held-out RMSE per iteration{}", k + 1, r.summary.starts[k].init_gloss,
+              r.summary.starts[k].chosen ? ", kept" : "", curve);
+  }
   double mean_y = 0;
   for (const auto& ob : p.problem.observations.records) mean_y += (ob.rgb[0] + ob.rgb[1] + ob.rgb[2]) / 3;
   mean_y /= p.problem.observations.records.size();
@@ -63,6 +70,7 @@ void BM_SolveMinerva(benchmark::State& state) {
   state.counters["vertices"] = static_cast<double>(p.problem.mesh.num_vertices());
   state.counters["observations"] = static_cast<double>(p.problem.observations.records.size());
   state.counters["starts"] = static_cast<double>(r.summary.starts.size());
+  state.counters["race_iters"] = static_cast<double>(o.start_race_iterations);
   state.counters["total_s"] = r.summary.seconds;
   state.counters["transport_s"] = r.summary.transport_seconds;
   state.counters["lighting_s"] = lighting_s;
@@ -126,9 +134,11 @@ void BM_TransportRoute(benchmark::State& state) {
 }
 BENCHMARK(BM_TransportRoute)->Args({20000, 2})->Args({20000, 0})->Args({20000, 1})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
+// Args: vertices, iterations, inverse.start_race_iterations (0: every start runs fully).
 BENCHMARK(BM_SolveMinerva)
-    ->Args({20000, 6})
-    ->Args({100000, 6})
+    ->Args({20000, 6, 0})
+    ->Args({100000, 6, 0})
+    ->Args({100000, 6, 4})
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();

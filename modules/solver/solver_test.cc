@@ -603,6 +603,7 @@ TEST_F(SolverTest, SeveralStartsKeepTheLowestHeldOutError) {
   const double score0 = single[0].summary.starts[0].score, score1 = single[1].summary.starts[0].score;
   ASSERT_NE(score0, score1) << "the two starts must end apart for the choice to mean something";
   o.init_gloss = {0.0, 1.0};
+  o.start_race_iterations = 0;  // every start runs fully
   const InverseResult both = SolveInverse(s.problem, o, nullptr);
   ASSERT_EQ(both.summary.starts.size(), 2u);
   const size_t best = score1 < score0 ? 1 : 0;
@@ -616,6 +617,25 @@ TEST_F(SolverTest, SeveralStartsKeepTheLowestHeldOutError) {
     ASSERT_EQ(both.reflectance.weights[k], expected.reflectance.weights[k]) << k;
   EXPECT_EQ(both.lighting.values[0][1], expected.lighting.values[0][1]);
   EXPECT_EQ(both.summary.iterations.size(), expected.summary.iterations.size());
+  ASSERT_EQ(both.summary.starts[0].holdout_rmse.size(), single[0].summary.iterations.size());
+  // A race (inverse.start_race_iterations): after 2 iterations the start with the lower held-out error so far
+  // goes on alone, and its result is that start run alone; the other stops at 2 iterations.
+  o.start_race_iterations = 2;
+  auto best_after = [](const InverseResult& r, size_t n) {
+    const std::vector<double>& h = r.summary.starts[0].holdout_rmse;
+    return *std::min_element(h.begin(), h.begin() + std::min(n, h.size()));
+  };
+  const size_t leader = best_after(single[1], 2) < best_after(single[0], 2) ? 1 : 0;
+  const InverseResult raced = SolveInverse(s.problem, o, nullptr);
+  ASSERT_EQ(raced.summary.starts.size(), 2u);
+  EXPECT_TRUE(raced.summary.starts[leader].chosen);
+  EXPECT_EQ(raced.summary.starts[1 - leader].iterations, 2);
+  EXPECT_EQ(raced.summary.starts[leader].iterations, single[leader].summary.starts[0].iterations);
+  EXPECT_DOUBLE_EQ(raced.summary.starts[leader].score, single[leader].summary.starts[0].score);
+  for (size_t k = 0; k < raced.reflectance.weights.size(); ++k)
+    ASSERT_EQ(raced.reflectance.weights[k], single[leader].reflectance.weights[k]) << k;
+  EXPECT_EQ(raced.lighting.values[0][1], single[leader].lighting.values[0][1]);
+  o.start_race_iterations = 0;
   // A known reflectance is its own start: one, whatever init_gloss lists.
   o.start_from_truth = true;
   EXPECT_EQ(SolveInverse(s.problem, o, &s.truth).summary.starts.size(), 1u);
