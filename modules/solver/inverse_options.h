@@ -113,8 +113,8 @@ struct InverseOptions {
     t->Add("init_gloss", &init_gloss,
            "Starting points of the alternation, one per value: every material starts with a neutral (white) specular "
            "of this share of its diffuse luminance, split evenly over the glossy lobes (0: none, the paper). Each "
-           "start runs the whole alternation, and the one with the lowest held-out error is kept; solve_summary.json "
-           "lists every start. The bilinear problem has local minima: on the clean synthetic bunny the start 0.4 "
+           "start runs inverse.start_race_iterations iterations, and the one with the lowest held-out error goes on "
+           "to the end; solve_summary.json lists every start. The bilinear problem has local minima: on the clean synthetic bunny the start 0.4 "
            "ends 0.65 dB of joint relighting above 0, on synthetic_tiny 0.7 dB below, and the held-out error ranks "
            "them as relighting does (docs/RESULTS.md items 19-20). Unused with a known reflectance.")
         .Range(0, 10);
