@@ -54,6 +54,14 @@ struct BrdfLobe {
   // BRDF value (1/sr, no cosine) for local directions; 0 below the horizon.
   template <typename T>
   T Eval(const Eigen::Matrix<T, 3, 1>& wi, const Eigen::Matrix<T, 3, 1>& wo) const;
+  // The same value from the cosines it depends on, for callers that hold
+  // directions in another frame than the lobe's normal n (any rotation leaves
+  // them unchanged, so no change of frame is needed): cos_i = n·wi > 0,
+  // cos_o = n·wo > 0; microfacet lobes: cos_h = n·h and o_dot_h = max(0, wo·h)
+  // with h = normalize(wi + wo); Phong: cos_mirror = wi·(2 cos_o n − wo).
+  // Arguments a lobe does not use are ignored. Eval computes these and calls it.
+  template <typename T>
+  T EvalCosines(const T& cos_i, const T& cos_o, const T& cos_h, const T& o_dot_h, const T& cos_mirror) const;
 
   // Importance-samples an incident direction for outgoing `wo` (local, z>0)
   // from uniform numbers u1, u2 in [0,1). Returns the direction (may lie below
@@ -98,8 +106,6 @@ void WriteReflectanceModel(const std::string& path, const ReflectanceModel& mode
 
 template <typename T>
 T BrdfLobe::Eval(const Eigen::Matrix<T, 3, 1>& wi, const Eigen::Matrix<T, 3, 1>& wo) const {
-  using std::exp;
-  using std::pow;
   using std::sqrt;
   using brdf_internal::Max0;
   const T cos_i = wi.z();
@@ -110,9 +116,7 @@ T BrdfLobe::Eval(const Eigen::Matrix<T, 3, 1>& wi, const Eigen::Matrix<T, 3, 1>&
       return T(1.0 / M_PI);
     case BrdfModel::kPhong: {
       const Eigen::Matrix<T, 3, 1> mirror(-wo.x(), -wo.y(), wo.z());
-      const T c = Max0(wi.dot(mirror));
-      if (!(c > T(0))) return T(0);
-      return T((exponent + 2.0) / (2.0 * M_PI)) * pow(c, T(exponent));
+      return EvalCosines(cos_i, cos_o, T(0), T(0), T(wi.dot(mirror)));
     }
     case BrdfModel::kCookTorrance:
     case BrdfModel::kGgx: {
@@ -120,11 +124,32 @@ T BrdfLobe::Eval(const Eigen::Matrix<T, 3, 1>& wi, const Eigen::Matrix<T, 3, 1>&
       const T h_norm = sqrt(h.squaredNorm());
       if (!(h_norm > T(1e-12))) return T(0);
       h /= h_norm;
-      const T cos_h = h.z();
+      return EvalCosines(cos_i, cos_o, T(h.z()), T(Max0(wo.dot(h))), T(0));
+    }
+  }
+  return T(0);
+}
+
+template <typename T>
+T BrdfLobe::EvalCosines(const T& cos_i, const T& cos_o, const T& cos_h, const T& o_dot_h, const T& cos_mirror) const {
+  using std::exp;
+  using std::pow;
+  using std::sqrt;
+  using brdf_internal::Max0;
+  if (!(cos_i > T(0)) || !(cos_o > T(0))) return T(0);
+  switch (model) {
+    case BrdfModel::kLambertian:
+      return T(1.0 / M_PI);
+    case BrdfModel::kPhong: {
+      const T c = Max0(cos_mirror);
+      if (!(c > T(0))) return T(0);
+      return T((exponent + 2.0) / (2.0 * M_PI)) * pow(c, T(exponent));
+    }
+    case BrdfModel::kCookTorrance:
+    case BrdfModel::kGgx: {
       const T cos_h2 = cos_h * cos_h;
       const T tan_h2 = (T(1) - cos_h2) / cos_h2;
       const T a2 = T(roughness * roughness);
-      const T o_dot_h = Max0(wo.dot(h));
       T d, g;
       if (model == BrdfModel::kCookTorrance) {
         d = exp(-tan_h2 / a2) / (T(M_PI) * a2 * cos_h2 * cos_h2);

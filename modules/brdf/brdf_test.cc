@@ -5,6 +5,8 @@
 
 #include <random>
 
+#include <Eigen/Geometry>
+
 #include "core/error.h"
 
 namespace relight {
@@ -108,6 +110,42 @@ TEST(BrdfTest, ImportanceSampledEstimateMatchesQuadrature) {
     const double sigma = std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n);
     EXPECT_NEAR(mean, reference, 4 * sigma + 2e-3) << lobe.Describe();
   }
+}
+
+// EvalCosines takes what the lobe depends on as cosines, which no rotation
+// changes: with the normal, wi and wo rotated anywhere, it must give Eval's value
+// in the normal's own frame (the transport rows evaluate footprint normals so).
+TEST(BrdfTest, EvalFromCosinesEqualsEvalInTheNormalsFrame) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto random_unit = [&] {
+    const double z = 2 * u(rng) - 1, phi = 2 * M_PI * u(rng), r = std::sqrt(1 - z * z);
+    return Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z);
+  };
+  int evaluated = 0;
+  for (const BrdfLobe& lobe : AllLobes()) {
+    SCOPED_TRACE(lobe.Describe());
+    for (int k = 0; k < 2000; ++k) {
+      // Local directions; the Phong ones near the mirror direction so its narrow lobe is non-zero.
+      const Eigen::Vector3d wo_local = Dir(std::acos(u(rng)), 2 * M_PI * u(rng));
+      Eigen::Vector3d wi_local = Dir(std::acos(u(rng)), 2 * M_PI * u(rng));
+      if (k % 2 == 0) wi_local = (Eigen::Vector3d(-wo_local.x(), -wo_local.y(), wo_local.z()) + 0.1 * random_unit()).normalized();
+      const double expected = lobe.Eval<double>(wi_local, wo_local);
+      // A random rotation R: world directions R·w, normal R·z.
+      const Eigen::Matrix3d rotation = Eigen::Quaterniond(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5)
+                                           .normalized()
+                                           .toRotationMatrix();
+      const Eigen::Vector3d n = rotation.col(2), wi = rotation * wi_local, wo = rotation * wo_local;
+      const Eigen::Vector3d h = (wi + wo).normalized();
+      const double cos_o = n.dot(wo);
+      const double got = lobe.EvalCosines<double>(n.dot(wi), cos_o, n.dot(h), std::max(0.0, wo.dot(h)),
+                                                  wi.dot(2 * cos_o * n - wo));
+      ASSERT_NEAR(got, expected, 1e-9 * std::max(1.0, expected)) << "wi " << wi_local.transpose() << ", wo "
+                                                                   << wo_local.transpose();
+      evaluated += expected > 0;
+    }
+  }
+  EXPECT_GT(evaluated, 5000);
 }
 
 TEST(BrdfTest, TemplatedEvalGivesDerivatives) {

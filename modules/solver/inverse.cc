@@ -160,6 +160,8 @@ struct Alternation {
   int next_iteration = 0;
   bool refit_initialisation = false;
   bool finished = false;        // converged, fixed, or out of budget: no more iterations
+  bool solve_lighting = true;   // false: the lighting is known and fixed
+  bool solve_reflectance = true;
 };
 
 // Sets up an alternation at its starting point (no iteration run yet).
@@ -184,17 +186,17 @@ Alternation StartAlternation(const SolveContext& ctx, const ModelSpec& spec) {
                                         &spec.lobe_enabled);
   }
   if (!(o.fixed_reflectance && known != nullptr && known->has_reflectance)) reflectance.lobe_enabled = spec.lobe_enabled;
-  const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
-  if (!solve_lighting) {
+  a.solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
+  a.solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
+  if (!a.solve_lighting) {
     RELIGHT_CHECK(o.lighting_basis == "haar") << "fixed lighting needs the haar basis";
     for (int i = 0; i < num_photos; ++i)
       for (int c = 0; c < 3; ++c)
         for (int k = 0; k < lighting.dim; ++k) lighting.values[i][c][k] = known->lighting_oct_rgb[i][k * 3 + c];
     lighting.UpdateCoefficients();
   }
-  const bool solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
   a.refit_initialisation =
-      solve_reflectance && o.init == "vertex_fits" && !(known != nullptr && known->has_reflectance);
+      a.solve_reflectance && o.init == "vertex_fits" && !(known != nullptr && known->has_reflectance);
   a.result.stop_reason = "max_iterations reached";
   return a;
 }
@@ -208,13 +210,12 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
   const InverseOptions& o = ctx.o;
   const ObservationSet& obs = ctx.problem.observations;
   const size_t nv = ctx.problem.mesh.num_vertices();
-  const KnownQuantities* known = ctx.known;
   const std::vector<BrdfLobe>& basis = a->basis;
   AlternationResult& result = a->result;
   LightingState& lighting = result.lighting;
   ReflectanceState& reflectance = result.reflectance;
-  const bool solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
-  const bool solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
+  const bool solve_lighting = a->solve_lighting;
+  const bool solve_reflectance = a->solve_reflectance;
   bool& refit_initialisation = a->refit_initialisation;
   // Robust reweighting of the reflectance step (nothing to reweight when the reflectance is fixed).
   const bool use_robust = solve_reflectance && o.robust_reflectance && o.robust_loss != "none";
@@ -287,24 +288,33 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
     ResidualStats(obs, train, responses, reflectance, &sse, &weight, robust_ptr);
     if (o.accelerate && iter > 0 && solve_lighting && solve_reflectance) {
       // Try a few step lengths; the evaluation is cheap next to a lighting step.
+      // The best candidate so far is kept whole (model and responses), so taking
+      // it costs no further evaluation.
       double best_step = 0;
+      LightingState best_l;
+      ReflectanceState best_r;
+      std::vector<float> best_resp;
       for (double trial : {1.5, 3.0, 6.0, 12.0}) {
         LightingState cand_l = lighting;
         ReflectanceState cand_r = reflectance;
         Extrapolate(prev_lighting, prev_reflectance, trial, &cand_l, &cand_r);
-        const std::vector<float> cand_resp = ComputeLobeResponses(transport, obs, train, cand_l);
+        std::vector<float> cand_resp = ComputeLobeResponses(transport, obs, train, cand_l);
         double cand_sse, cand_w;
         ResidualStats(obs, train, cand_resp, cand_r, &cand_sse, &cand_w, robust_ptr);
         if (cand_sse < sse) {
           sse = cand_sse;
           best_step = trial;
+          best_l = std::move(cand_l);
+          best_r = std::move(cand_r);
+          best_resp = std::move(cand_resp);
         } else {
           break;  // longer steps only get worse along a convex valley
         }
       }
       if (best_step > 0) {
-        Extrapolate(prev_lighting, prev_reflectance, best_step, &lighting, &reflectance);
-        responses = ComputeLobeResponses(transport, obs, train, lighting);
+        lighting = std::move(best_l);
+        reflectance = std::move(best_r);
+        responses = std::move(best_resp);
         rec.extrapolation = best_step;
       }
     }
@@ -312,7 +322,9 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
     if (solve_lighting && solve_reflectance) {
       const Eigen::Vector3d g = GaugeScale(o.gauge, lighting, reflectance, ctx.observed);
       ApplyGauge(g, &lighting, &reflectance);
-      responses = ComputeLobeResponses(transport, obs, train, lighting);
+      // Responses are linear in the lighting: channel c scales by g_c (equal to
+      // recomputing them up to float rounding, at a fraction of the cost).
+      ScaleResponses(g, &responses);
       ResidualStats(obs, train, responses, reflectance, &sse, &weight, robust_ptr);
     }
     rec.objective = sse;

@@ -1,5 +1,6 @@
 #include "solver/reflectance.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
@@ -17,11 +18,54 @@ namespace relight {
 std::vector<float> ComputeLobeResponses(const TransportStore& transport, const ObservationSet& observations,
                                         const std::vector<uint32_t>& ids, const LightingState& lighting) {
   const int b_count = transport.num_lobes();
+  const int dim = transport.dim();
+  // The three channels' coefficients interleaved per photo, so one pass over a
+  // row's (index, value) pairs serves all three channels. Each channel's sum is
+  // accumulated in the row's order, as LobePredictions does, so the result is
+  // the same to the bit.
+  std::vector<std::vector<float>> rgb(lighting.coefficients.size());
+  for (size_t i = 0; i < rgb.size(); ++i) {
+    rgb[i].resize(size_t(dim) * 3);
+    for (int c = 0; c < 3; ++c) {
+      const std::vector<float>& lc = lighting.coefficients[i][c];
+      RELIGHT_CHECK_EQ(lc.size(), size_t(dim)) << "lighting and transport rows of different dimension";
+      for (int k = 0; k < dim; ++k) rgb[i][size_t(k) * 3 + c] = lc[k];
+    }
+  }
   std::vector<float> out(ids.size() * b_count * 3);
-  tbb::parallel_for(size_t(0), ids.size(), [&](size_t k) {
-    LobePredictions(transport, observations, ids[k], lighting, out.data() + k * b_count * 3);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, ids.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t k = r.begin(); k < r.end(); ++k) {
+      const Observation& ob = observations.records[ids[k]];
+      const float* l = rgb[ob.photo].data();
+      float* o = out.data() + k * b_count * 3;
+      for (int b = 0; b < b_count; ++b) {
+        const TransportStore::Row row = transport.Get(ids[k], ob.vertex, b);
+        float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f;
+        for (uint32_t q = 0; q < row.size; ++q) {
+          const float v = row.value[q];
+          const float* lq = l + size_t(row.index[q]) * 3;
+          s0 += v * lq[0];
+          s1 += v * lq[1];
+          s2 += v * lq[2];
+        }
+        o[b * 3 + 0] = s0;
+        o[b * 3 + 1] = s1;
+        o[b * 3 + 2] = s2;
+      }
+    }
   });
   return out;
+}
+
+void ScaleResponses(const Eigen::Vector3d& s, std::vector<float>* responses) {
+  RELIGHT_CHECK(responses->size() % 3 == 0) << "responses come in RGB triples";
+  const float s0 = static_cast<float>(s[0]), s1 = static_cast<float>(s[1]), s2 = static_cast<float>(s[2]);
+  float* r = responses->data();
+  for (size_t k = 0; k < responses->size(); k += 3) {
+    r[k] *= s0;
+    r[k + 1] *= s1;
+    r[k + 2] *= s2;
+  }
 }
 
 namespace {

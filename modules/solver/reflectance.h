@@ -27,6 +27,10 @@ namespace relight {
 std::vector<float> ComputeLobeResponses(const TransportStore& transport, const ObservationSet& observations,
                                         const std::vector<uint32_t>& ids, const LightingState& lighting);
 
+// Responses (as from ComputeLobeResponses) of the lighting with channel c
+// scaled by s_c: every response of channel c times s_c.
+void ScaleResponses(const Eigen::Vector3d& s, std::vector<float>* responses);
+
 // k-means initialisation of materials and weights from the observations `train`.
 // `gloss` > 0 (not in the paper; inverse.init_gloss): every material also
 // starts with a neutral specular of `gloss` times its diffuse luminance,

@@ -7,6 +7,7 @@
 //
 //   build/bin/solver_benchmark --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
+#include <tbb/parallel_for.h>
 
 #include <cmath>
 #include <map>
@@ -14,6 +15,8 @@
 #include "core/log.h"
 #include "core/timer.h"
 #include "solver/lobe_spec.h"
+#include "solver/reflectance.h"
+#include "solver/transport.h"
 #include "solver/synthetic_problem.h"
 
 namespace relight {
@@ -133,6 +136,51 @@ void BM_TransportRoute(benchmark::State& state) {
   state.SetLabel(state.range(1) == 2 ? "pixel, vertex normal" : to.route);
 }
 BENCHMARK(BM_TransportRoute)->Args({20000, 2})->Args({20000, 0})->Args({20000, 1})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+// The reflectance step's lobe responses over every observation (each
+// alternation computes them after the lighting step, per extrapolation trial
+// and for the hold-out): ComputeLobeResponses (one pass per row for all three
+// channels) against the per-channel dot products of LobePredictions, same
+// rows, same lighting, same run. Arg 1: 0 = ComputeLobeResponses, 1 = LobePredictions.
+void BM_LobeResponses(benchmark::State& state) {
+  InitLogging("solver_benchmark", "", LogLevel::kWarning);
+  setenv("RELIGHT_PROGRESS", "off", 1);
+  const SyntheticProblem& p = Problem(static_cast<int>(state.range(0)));
+  static std::map<int, TransportStore> rows;
+  if (!rows.count(state.range(0))) {
+    TransportOptions to;
+    to.basis = ParseLobeSpecs({"lambertian", "ggx:0.08", "ggx:0.2", "ggx:0.4", "phong:50", "phong:200", "phong:500"});
+    to.env_resolution = 32;
+    rows.emplace(state.range(0), BuildTransport(p.problem.mesh, p.problem.visibility, p.problem.observations, to));
+  }
+  const TransportStore& transport = rows.at(state.range(0));
+  const ObservationSet& obs = p.problem.observations;
+  LightingState lighting;
+  lighting.env_resolution = 32;
+  lighting.Resize(static_cast<int>(obs.num_photos));
+  for (uint32_t i = 0; i < obs.num_photos; ++i)
+    for (int c = 0; c < 3; ++c)
+      for (size_t k = 0; k < lighting.values[i][c].size(); ++k) lighting.values[i][c][k] = p.truth.lighting_oct_rgb[i][k * 3 + c];
+  lighting.UpdateCoefficients();
+  std::vector<uint32_t> ids(obs.records.size());
+  for (size_t k = 0; k < ids.size(); ++k) ids[k] = static_cast<uint32_t>(k);
+  const int b_count = transport.num_lobes();
+  std::vector<float> out;
+  for (auto _ : state) {
+    if (state.range(1) == 0) {
+      out = ComputeLobeResponses(transport, obs, ids, lighting);
+    } else {
+      out.assign(ids.size() * b_count * 3, 0.0f);
+      tbb::parallel_for(size_t(0), ids.size(), [&](size_t k) {
+        LobePredictions(transport, obs, ids[k], lighting, out.data() + k * b_count * 3);
+      });
+    }
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["observations"] = static_cast<double>(ids.size());
+  state.SetLabel(state.range(1) == 0 ? "ComputeLobeResponses (RGB per row)" : "LobePredictions (per channel)");
+}
+BENCHMARK(BM_LobeResponses)->Args({100000, 1})->Args({100000, 0})->Args({100000, 1})->Args({100000, 0})->Iterations(5)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Args: vertices, iterations, inverse.start_race_iterations (0: every start runs fully).
 BENCHMARK(BM_SolveMinerva)

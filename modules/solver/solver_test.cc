@@ -140,6 +140,146 @@ TEST_F(SolverTest, KnownLightingRecoversAlbedo) {
   EXPECT_GT(AlbedoPsnr(s, r.reflectance), 35.0);
 }
 
+// The reflectance step's per-lobe responses: ComputeLobeResponses reads each
+// row once for all three channels; it must give LobePredictions' values to
+// the bit, in both lighting bases, with keep-energy truncated rows. The gauge
+// rescales responses instead of recomputing them (ScaleResponses): equal to
+// recomputing under the scaled lighting up to float rounding.
+TEST_F(SolverTest, LobeResponsesAreThePerObservationPredictionsAndScaleWithTheLighting) {
+  const std::vector<std::string> basis = {"lambertian", "phong:50", "ggx:0.2"};
+  const Scene s = MakeScene(basis, /*glossy=*/true);
+  const ObservationSet& obs = s.problem.observations;
+  std::vector<uint32_t> ids;  // every third observation, in reverse: any subset, in any order
+  for (size_t k = obs.records.size(); k-- > 0;)
+    if (k % 3 == 0) ids.push_back(static_cast<uint32_t>(k));
+  ASSERT_GT(ids.size(), 100u);
+  for (const std::string lighting_basis : {"haar", "sh"}) {
+    SCOPED_TRACE(lighting_basis);
+    TransportOptions to;
+    to.basis = ParseLobeSpecs(basis);
+    to.env_resolution = kEnv;
+    to.lighting_basis = lighting_basis;
+    to.sh_order = 3;
+    to.keep_energy = 0.99;
+    const TransportStore transport = BuildTransport(s.problem.mesh, s.problem.visibility, obs, to);
+    LightingState lighting;
+    lighting.basis = lighting_basis;
+    lighting.env_resolution = kEnv;
+    lighting.sh_order = 3;
+    lighting.Resize(static_cast<int>(obs.num_photos));
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(0.0f, 2.0f);
+    for (auto& photo : lighting.values)
+      for (auto& channel : photo)
+        for (float& v : channel) v = u(rng);
+    lighting.UpdateCoefficients();
+    const std::vector<float> responses = ComputeLobeResponses(transport, obs, ids, lighting);
+    const int b_count = transport.num_lobes();
+    ASSERT_EQ(responses.size(), ids.size() * b_count * 3);
+    std::vector<float> expected(b_count * 3);
+    size_t mismatches = 0;
+    for (size_t k = 0; k < ids.size(); ++k) {
+      LobePredictions(transport, obs, ids[k], lighting, expected.data());
+      for (int j = 0; j < b_count * 3; ++j) mismatches += responses[k * b_count * 3 + j] != expected[j];
+    }
+    EXPECT_EQ(mismatches, 0u) << "of " << responses.size() << " responses";
+
+    // The gauge: channel c of the lighting times g_c.
+    const Eigen::Vector3d g(0.3, 1.7, 4.0);
+    LightingState scaled = lighting;
+    for (auto& photo : scaled.values)
+      for (int c = 0; c < 3; ++c)
+        for (float& v : photo[c]) v = static_cast<float>(v * g[c]);
+    scaled.UpdateCoefficients();
+    const std::vector<float> recomputed = ComputeLobeResponses(transport, obs, ids, scaled);
+    std::vector<float> rescaled = responses;
+    ScaleResponses(g, &rescaled);
+    double worst = 0, largest = 0;
+    for (size_t j = 0; j < recomputed.size(); ++j) {
+      worst = std::max(worst, double(std::abs(rescaled[j] - recomputed[j])));
+      largest = std::max(largest, double(std::abs(recomputed[j])));
+    }
+    EXPECT_GT(largest, 0.1);
+    EXPECT_LT(worst, 1e-5 * largest) << "float rounding only";
+  }
+}
+
+// Row truncation (inverse.transport_keep_energy, transport_max_coefficients):
+// each kept row must be, in ascending index order, the fewest largest
+// coefficients of the full row that hold the energy fraction, at most the cap;
+// the reference ranks the full row by a sort (energy descending, index ascending).
+TEST_F(SolverTest, TruncatedRowsKeepTheFewestLargestCoefficientsHoldingTheEnergy) {
+  const std::vector<std::string> basis = {"lambertian", "phong:50", "ggx:0.2"};
+  const Scene s = MakeScene(basis, /*glossy=*/true);
+  const ObservationSet& obs = s.problem.observations;
+  TransportOptions full_options;
+  full_options.basis = ParseLobeSpecs(basis);
+  full_options.env_resolution = kEnv;
+  full_options.keep_energy = 1.0;
+  full_options.max_coefficients = kEnv * kEnv;
+  const TransportStore full = BuildTransport(s.problem.mesh, s.problem.visibility, obs, full_options);
+  struct Case {
+    double fraction;
+    int cap;
+  };
+  for (const Case cs : {Case{0.99, 256}, Case{0.9, 256}, Case{0.99999, 12}}) {
+    SCOPED_TRACE(testing::Message() << "keep_energy " << cs.fraction << ", cap " << cs.cap);
+    TransportOptions to = full_options;
+    to.keep_energy = cs.fraction;
+    to.max_coefficients = cs.cap;
+    const TransportStore cut = BuildTransport(s.problem.mesh, s.problem.visibility, obs, to);
+    size_t rows = 0, wrong = 0, capped = 0, boundary = 0;
+    for (size_t o = 0; o < obs.records.size(); o += 7) {
+      for (int b = 0; b < full.num_lobes(); ++b) {
+        const TransportStore::Row f = full.Get(o, obs.records[o].vertex, b);
+        const TransportStore::Row c = cut.Get(o, obs.records[o].vertex, b);
+        std::vector<std::pair<double, int>> ranked;  // (-energy, index): ascending = the ranking
+        double total = 0;
+        for (uint32_t k = 0; k < f.size; ++k) {
+          if (f.value[k] == 0.0f) continue;
+          const double e = double(f.value[k] * f.value[k]);
+          ranked.emplace_back(-e, f.index[k]);
+          total += e;
+        }
+        std::sort(ranked.begin(), ranked.end());
+        size_t q = 0;
+        double acc = 0;
+        while (q < ranked.size() && acc < cs.fraction * total) acc -= ranked[q++].first;
+        const bool at_cap = q > size_t(cs.cap);
+        q = std::min(q, size_t(cs.cap));
+        capped += at_cap;
+        ++rows;
+        // Where the running sum meets the target within float rounding, one more or fewer is right too.
+        const double before = q > 0 ? acc + ranked[q - 1].first : 0;
+        const bool tie = !at_cap && q > 0 && std::abs(before - cs.fraction * total) < 1e-5 * total;
+        boundary += tie;
+        std::vector<int> expected;
+        for (size_t k = 0; k < q; ++k) expected.push_back(ranked[k].second);
+        std::sort(expected.begin(), expected.end());
+        std::vector<int> got(c.index, c.index + c.size);
+        bool ok = got == expected;
+        if (!ok && tie) {
+          std::vector<int> fewer;
+          for (size_t k = 0; k + 1 < q; ++k) fewer.push_back(ranked[k].second);
+          std::sort(fewer.begin(), fewer.end());
+          ok = got == fewer;
+        }
+        for (uint32_t k = 0; ok && k < c.size; ++k) {
+          // The values are the full row's, unchanged.
+          const auto* it = std::lower_bound(f.index, f.index + f.size, c.index[k]);
+          ok = it != f.index + f.size && *it == c.index[k] && f.value[it - f.index] == c.value[k];
+        }
+        wrong += !ok;
+      }
+    }
+    EXPECT_GT(rows, 1000u);
+    EXPECT_EQ(wrong, 0u) << "of " << rows << " rows (" << boundary << " at a rounding tie)";
+    if (cs.cap < 100) {
+      EXPECT_GT(capped, rows / 2) << "the cap binds";
+    }
+  }
+}
+
 // Two grey materials that differ only in gloss: a matte paint (diffuse 0.6)
 // beside a dark polished one (diffuse 0.06 under a Phong-50 lobe of 0.6). Their
 // mean colours have the same hue and saturation, so the paper's k-means on

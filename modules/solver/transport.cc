@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <functional>
 
 #include "core/error.h"
 #include "core/progress.h"
@@ -101,10 +103,26 @@ struct VertexTexels {
 };
 
 // The fewest largest-magnitude coefficients holding `fraction` of the energy,
-// at most `cap`, as ascending indices. Selection by nth_element (O(n)) plus a
-// sort of the few kept ones: a full sort of every row dominated the build.
+// at most `cap`, as ascending indices. Ranked by (energy descending, index
+// ascending), a strict order, so the kept set is unique. The count is found
+// by a selection on partial sums (each round an nth_element over the still
+// undecided part, which halves it: O(n) in all) and the kept ones are emitted
+// by a scan in index order; sorting the candidates (an earlier version)
+// dominated the build.
 struct Truncator {
-  std::vector<std::pair<float, uint16_t>> nz;  // (squared magnitude, index)
+  // Per non-zero coefficient one key that sorts like the ranking: the energy's
+  // bits (a non-negative float orders like its bit pattern) above the
+  // complemented index, so one integer comparison ranks.
+  std::vector<uint64_t> nz;
+  std::vector<uint8_t> kept;  // per coefficient: 1 when kept
+
+  static float Energy(uint64_t key) {
+    const uint32_t bits = static_cast<uint32_t>(key >> 16);
+    float e;
+    std::memcpy(&e, &bits, sizeof e);
+    return e;
+  }
+  static uint16_t Index(uint64_t key) { return static_cast<uint16_t>(0xFFFFu - (key & 0xFFFFu)); }
 
   void Run(const float* coeffs, int size, double fraction, int cap, std::vector<uint16_t>* index,
            std::vector<float>* value) {
@@ -113,39 +131,58 @@ struct Truncator {
     for (int k = 0; k < size; ++k) {
       if (coeffs[k] == 0.0f) continue;
       const float e = coeffs[k] * coeffs[k];
-      nz.emplace_back(e, static_cast<uint16_t>(k));
+      uint32_t bits;
+      std::memcpy(&bits, &e, sizeof bits);
+      nz.push_back((uint64_t(bits) << 16) | (0xFFFFu - static_cast<uint32_t>(k)));
       total += e;
     }
     index->clear();
     value->clear();
     if (nz.empty()) return;
-    const double target = fraction * total;
-    auto larger = [](const std::pair<float, uint16_t>& a, const std::pair<float, uint16_t>& b) {
-      return a.first > b.first || (a.first == b.first && a.second < b.second);
-    };
-    size_t keep = nz.size();
-    if (fraction < 1.0 || static_cast<int>(nz.size()) > cap) {
-      size_t k = std::min<size_t>({nz.size(), static_cast<size_t>(cap), 64});
-      for (;;) {
-        std::nth_element(nz.begin(), nz.begin() + (k - 1), nz.end(), larger);
-        std::sort(nz.begin(), nz.begin() + k, larger);
-        double acc = 0;
-        size_t q = 0;
-        while (q < k && acc < target) acc += nz[q++].first;
-        if (acc >= target || k == nz.size() || static_cast<int>(k) >= cap) {
-          keep = q;
-          break;
-        }
-        k = std::min<size_t>({nz.size(), static_cast<size_t>(cap), 4 * k});
+    const size_t limit = static_cast<size_t>(std::max(0, cap));
+    if (fraction >= 1.0 && nz.size() <= limit) {  // everything
+      index->reserve(nz.size());
+      value->reserve(nz.size());
+      for (uint64_t key : nz) {
+        index->push_back(Index(key));
+        value->push_back(coeffs[Index(key)]);
       }
+      return;
     }
-    std::sort(nz.begin(), nz.begin() + keep,
-              [](const std::pair<float, uint16_t>& a, const std::pair<float, uint16_t>& b) { return a.second < b.second; });
+    const std::greater<uint64_t> larger;
+    const double target = fraction * total;
+    // Invariant: [0, lo) are the lo highest ranked, with sum `acc` < target;
+    // [lo, hi) the next ones; acc + their sum >= target (or hi = n).
+    size_t keep = 0;
+    if (target > 0) {
+      size_t lo = 0, hi = nz.size();
+      double acc = 0;
+      while (hi - lo > 1) {
+        const size_t mid = lo + (hi - lo) / 2;
+        std::nth_element(nz.begin() + lo, nz.begin() + mid, nz.begin() + hi, larger);
+        double part = 0;
+        for (size_t q = lo; q < mid; ++q) part += Energy(nz[q]);
+        if (acc + part >= target) {
+          hi = mid;
+        } else {
+          acc += part;
+          lo = mid;
+        }
+      }
+      keep = hi;
+    }
+    if (keep > limit) {
+      std::nth_element(nz.begin(), nz.begin() + limit, nz.begin() + keep, larger);
+      keep = limit;
+    }
+    kept.assign(size, 0);
+    for (size_t q = 0; q < keep; ++q) kept[Index(nz[q])] = 1;
     index->reserve(keep);
     value->reserve(keep);
-    for (size_t q = 0; q < keep; ++q) {
-      index->push_back(nz[q].second);
-      value->push_back(coeffs[nz[q].second]);
+    for (int k = 0; k < size; ++k) {
+      if (!kept[k]) continue;
+      index->push_back(static_cast<uint16_t>(k));
+      value->push_back(coeffs[k]);
     }
   }
 };
@@ -456,21 +493,32 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
             // Cutoffs widened by the spread: the mirror direction turns by up to twice the normal's angle.
             const float mc_union = mc > -1 ? std::cos(std::min<float>(M_PI, std::acos(mc) + 2 * spread)) : -2.0f;
             const float hc_union = hc > -1 ? std::cos(std::min<float>(M_PI, std::acos(hc) + spread)) : -2.0f;
+            // The lobe at each sample's normal from rotation-invariant cosines
+            // (BrdfLobe::EvalCosines): no change of frame per sample and texel,
+            // and the half vector (and wo·h) is the same for every sample.
+            const bool microfacet = lobe.model == BrdfModel::kGgx || lobe.model == BrdfModel::kCookTorrance;
             for (int j : visible) {
               const Eigen::Vector3f& wi = t.dir_local[j];
               if (wi.dot(mirror0) < mc_union) continue;
               Eigen::Vector3f h = Eigen::Vector3f::Zero();
-              if (hc > -1) {
-                h = (wi + wo).normalized();
-                if (h.z() < hc_union) continue;
+              float o_dot_h = 0.0f;
+              if (microfacet) {
+                h = wi + wo;
+                const float h_norm = h.norm();
+                if (!(h_norm > 1e-12f)) continue;
+                h /= h_norm;
+                if (hc > -1 && h.z() < hc_union) continue;
+                o_dot_h = std::max(0.0f, wo.dot(h));
               }
               float sum = 0.0f;
               for (const FootprintSample& sm : samples) {
-                if (mc > -1 && wi.dot(sm.mirror) < mc) continue;
+                const float cos_mirror = wi.dot(sm.mirror);
+                if (mc > -1 && cos_mirror < mc) continue;
                 const float cos_i = sm.normal.dot(wi);
                 if (cos_i <= 0) continue;
-                if (hc > -1 && h.dot(sm.normal) < hc) continue;
-                const float f = lobe.Eval<float>(sm.frame->ToLocal(wi), sm.wo);
+                const float cos_h = microfacet ? h.dot(sm.normal) : 0.0f;
+                if (hc > -1 && cos_h < hc) continue;
+                const float f = lobe.EvalCosines<float>(cos_i, sm.wo.z(), cos_h, o_dot_h, cos_mirror);
                 if (f > 0) sum += sm.weight * f * cos_i;
               }
               if (sum <= 0) continue;
