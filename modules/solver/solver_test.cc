@@ -57,6 +57,16 @@ InverseOptions BaseOptions(const std::vector<std::string>& basis) {
   return o;
 }
 
+// Transport options over `basis` at the tests' map size with every coefficient kept (exact rows).
+TransportOptions FullRowOptions(const std::vector<std::string>& basis) {
+  TransportOptions to;
+  to.basis = ParseLobeSpecs(basis);
+  to.env_resolution = kEnv;
+  to.keep_energy = 1.0;
+  to.max_coefficients = kEnv * kEnv;
+  return to;
+}
+
 class SolverTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -155,9 +165,7 @@ TEST_F(SolverTest, LobeResponsesAreThePerObservationPredictionsAndScaleWithTheLi
   ASSERT_GT(ids.size(), 100u);
   for (const std::string lighting_basis : {"haar", "sh"}) {
     SCOPED_TRACE(lighting_basis);
-    TransportOptions to;
-    to.basis = ParseLobeSpecs(basis);
-    to.env_resolution = kEnv;
+    TransportOptions to = FullRowOptions(basis);
     to.lighting_basis = lighting_basis;
     to.sh_order = 3;
     to.keep_energy = 0.99;
@@ -212,11 +220,7 @@ TEST_F(SolverTest, TruncatedRowsKeepTheFewestLargestCoefficientsHoldingTheEnergy
   const std::vector<std::string> basis = {"lambertian", "phong:50", "ggx:0.2"};
   const Scene s = MakeScene(basis, /*glossy=*/true);
   const ObservationSet& obs = s.problem.observations;
-  TransportOptions full_options;
-  full_options.basis = ParseLobeSpecs(basis);
-  full_options.env_resolution = kEnv;
-  full_options.keep_energy = 1.0;
-  full_options.max_coefficients = kEnv * kEnv;
+  const TransportOptions full_options = FullRowOptions(basis);
   const TransportStore full = BuildTransport(s.problem.mesh, s.problem.visibility, obs, full_options);
   struct Case {
     double fraction;
@@ -296,11 +300,7 @@ TEST_F(SolverTest, VertexFitInitialisationSeparatesMaterialsOfOneHue) {
   const ObservationSet& obs = s.problem.observations;
   std::vector<uint32_t> all(obs.records.size());
   for (size_t k = 0; k < all.size(); ++k) all[k] = static_cast<uint32_t>(k);
-  TransportOptions to;
-  to.basis = ParseLobeSpecs(basis);
-  to.env_resolution = kEnv;
-  to.keep_energy = 1.0;
-  to.max_coefficients = kEnv * kEnv;
+  TransportOptions to = FullRowOptions(basis);
   const TransportStore transport = BuildTransport(s.problem.mesh, s.problem.visibility, obs, to);
   LightingState lighting;
   lighting.env_resolution = kEnv;
@@ -595,11 +595,7 @@ namespace {
 TEST_F(SolverTest, WaveletRouteAgreesWithPixelRoute) {
   const std::vector<std::string> basis = {"lambertian", "phong:50"};
   const Scene s = MakeScene(basis, true);
-  TransportOptions to;
-  to.basis = ParseLobeSpecs(basis);
-  to.env_resolution = kEnv;
-  to.keep_energy = 1.0;
-  to.max_coefficients = kEnv * kEnv;
+  TransportOptions to = FullRowOptions(basis);
   const TransportStore pixel = BuildTransport(s.problem.mesh, s.problem.visibility, s.problem.observations, to);
   to.route = "wavelet";
   const TransportStore wavelet = BuildTransport(s.problem.mesh, s.problem.visibility, s.problem.observations, to);
