@@ -62,6 +62,16 @@ struct BrdfLobe {
   // Arguments a lobe does not use are ignored. Eval computes these and calls it.
   template <typename T>
   T EvalCosines(const T& cos_i, const T& cos_o, const T& cos_h, const T& o_dot_h, const T& cos_mirror) const;
+  // GGX factored for many incident directions at one outgoing one (the
+  // transport rows hoist what depends on wo alone):
+  //   f(wi, wo) cos_i = GgxViewFactor(cos_o) · Schlick(f0, o_dot_h) · GgxHalfFactor(cos_i, cos_h),
+  // GgxViewFactor = G1(cos_o) / (4 cos_o) and GgxHalfFactor = D(cos_h) G1(cos_i),
+  // in the division-light forms D = α²/(π (α² + (1−α²) sin²θ_h)²) and
+  // G1(c) = 2c / (c + sqrt(α² + (1−α²) c²)). Cosines > 0; EvalCosines uses them.
+  template <typename T>
+  T GgxViewFactor(const T& cos_o) const;
+  template <typename T>
+  T GgxHalfFactor(const T& cos_i, const T& cos_h) const;
 
   // Importance-samples an incident direction for outgoing `wo` (local, z>0)
   // from uniform numbers u1, u2 in [0,1). Returns the direction (may lie below
@@ -134,7 +144,6 @@ template <typename T>
 T BrdfLobe::EvalCosines(const T& cos_i, const T& cos_o, const T& cos_h, const T& o_dot_h, const T& cos_mirror) const {
   using std::exp;
   using std::pow;
-  using std::sqrt;
   using brdf_internal::Max0;
   if (!(cos_i > T(0)) || !(cos_o > T(0))) return T(0);
   switch (model) {
@@ -147,32 +156,39 @@ T BrdfLobe::EvalCosines(const T& cos_i, const T& cos_o, const T& cos_h, const T&
     }
     case BrdfModel::kCookTorrance:
     case BrdfModel::kGgx: {
+      const T f = brdf_internal::Schlick(T(f0), o_dot_h);
+      if (model == BrdfModel::kGgx) return GgxViewFactor(cos_o) * f * GgxHalfFactor(cos_i, cos_h) / cos_i;
       const T cos_h2 = cos_h * cos_h;
       const T tan_h2 = (T(1) - cos_h2) / cos_h2;
       const T a2 = T(roughness * roughness);
-      T d, g;
-      if (model == BrdfModel::kCookTorrance) {
-        d = exp(-tan_h2 / a2) / (T(M_PI) * a2 * cos_h2 * cos_h2);
-        // Cook-Torrance V-cavity masking-shadowing.
-        const T gi = T(2) * cos_h * cos_i / o_dot_h;
-        const T go = T(2) * cos_h * cos_o / o_dot_h;
-        g = T(1);
-        if (gi < g) g = gi;
-        if (go < g) g = go;
-      } else {
-        const T denom = a2 + tan_h2;
-        d = a2 / (T(M_PI) * cos_h2 * cos_h2 * denom * denom);
-        auto g1 = [&](const T& c) {
-          const T tan2 = (T(1) - c * c) / (c * c);
-          return T(2) / (T(1) + sqrt(T(1) + a2 * tan2));
-        };
-        g = g1(cos_i) * g1(cos_o);
-      }
-      const T f = brdf_internal::Schlick(T(f0), o_dot_h);
+      const T d = exp(-tan_h2 / a2) / (T(M_PI) * a2 * cos_h2 * cos_h2);
+      // Cook-Torrance V-cavity masking-shadowing.
+      const T gi = T(2) * cos_h * cos_i / o_dot_h;
+      const T go = T(2) * cos_h * cos_o / o_dot_h;
+      T g = T(1);
+      if (gi < g) g = gi;
+      if (go < g) g = go;
       return d * g * f / (T(4) * cos_i * cos_o);
     }
   }
   return T(0);
+}
+
+template <typename T>
+T BrdfLobe::GgxViewFactor(const T& cos_o) const {
+  using std::sqrt;
+  const T a2 = T(roughness * roughness);
+  return T(1) / (T(2) * (cos_o + sqrt(a2 + (T(1) - a2) * cos_o * cos_o)));
+}
+
+template <typename T>
+T BrdfLobe::GgxHalfFactor(const T& cos_i, const T& cos_h) const {
+  using std::sqrt;
+  const T a2 = T(roughness * roughness);
+  // (α²−1) cos_h² + 1 = α² + (1−α²) sin²θ_h, with sin² = (1−cos)(1+cos) free of
+  // cancellation near the peak (1 − cos is exact there).
+  const T t = a2 + (T(1) - a2) * ((T(1) - cos_h) * (T(1) + cos_h));
+  return T(2 * roughness * roughness / M_PI) * cos_i / (t * t * (cos_i + sqrt(a2 + (T(1) - a2) * cos_i * cos_i)));
 }
 
 }  // namespace relight

@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -105,16 +106,22 @@ struct VertexTexels {
 // The fewest largest-magnitude coefficients holding `fraction` of the energy,
 // at most `cap`, as ascending indices. Ranked by (energy descending, index
 // ascending), a strict order, so the kept set is unique. The count is found
-// by a selection on partial sums (each round an nth_element over the still
-// undecided part, which halves it: O(n) in all) and the kept ones are emitted
-// by a scan in index order; sorting the candidates (an earlier version)
-// dominated the build.
+// in two steps, O(n) in all: a histogram of the energies by their float
+// exponent (one octave per bucket) names the octave where the running sum
+// from the top reaches the target; everything above it is kept, everything
+// below dropped, and only that octave's coefficients go through the
+// selection on partial sums (each round an nth_element over the still
+// undecided part, which halves it). The kept ones are emitted by a scan in
+// index order. Sorting the candidates (an earlier version) dominated the
+// build, and so did the selection over all of them (the version before this).
 struct Truncator {
   // Per non-zero coefficient one key that sorts like the ranking: the energy's
   // bits (a non-negative float orders like its bit pattern) above the
   // complemented index, so one integer comparison ranks.
-  std::vector<uint64_t> nz;
+  std::vector<uint64_t> nz, scratch;
   std::vector<uint8_t> kept;  // per coefficient: 1 when kept
+  std::array<double, 256> octave_energy{};
+  std::array<uint32_t, 256> octave_count{};
 
   static float Energy(uint64_t key) {
     const uint32_t bits = static_cast<uint32_t>(key >> 16);
@@ -123,19 +130,39 @@ struct Truncator {
     return e;
   }
   static uint16_t Index(uint64_t key) { return static_cast<uint16_t>(0xFFFFu - (key & 0xFFFFu)); }
+  // The float exponent field of the energy: keys of a higher octave rank higher.
+  static int Octave(uint64_t key) { return static_cast<int>(key >> (16 + 23)) & 0xFF; }
 
   void Run(const float* coeffs, int size, double fraction, int cap, std::vector<uint16_t>* index,
            std::vector<float>* value) {
     nz.clear();
     double total = 0;
+    int top = 0, bottom = 255;  // octaves in use
     for (int k = 0; k < size; ++k) {
       if (coeffs[k] == 0.0f) continue;
       const float e = coeffs[k] * coeffs[k];
       uint32_t bits;
       std::memcpy(&bits, &e, sizeof bits);
-      nz.push_back((uint64_t(bits) << 16) | (0xFFFFu - static_cast<uint32_t>(k)));
+      const uint64_t key = (uint64_t(bits) << 16) | (0xFFFFu - static_cast<uint32_t>(k));
+      nz.push_back(key);
+      const int oct = Octave(key);
+      if (oct > top) top = oct;
+      if (oct < bottom) bottom = oct;
+      octave_energy[oct] += e;
+      ++octave_count[oct];
       total += e;
     }
+    // The octaves' sums are reset whichever way this returns.
+    struct Reset {
+      Truncator* t;
+      int bottom, top;
+      ~Reset() {
+        for (int q = bottom; q <= top; ++q) {
+          t->octave_energy[q] = 0;
+          t->octave_count[q] = 0;
+        }
+      }
+    } reset{this, bottom, top};
     index->clear();
     value->clear();
     if (nz.empty()) return;
@@ -155,8 +182,25 @@ struct Truncator {
     // [lo, hi) the next ones; acc + their sum >= target (or hi = n).
     size_t keep = 0;
     if (target > 0) {
-      size_t lo = 0, hi = nz.size();
-      double acc = 0;
+      // The octave where the sum from the top reaches the target.
+      int boundary = top;
+      double above = 0;  // energy of the octaves above `boundary`
+      size_t count_above = 0;
+      while (boundary > bottom && above + octave_energy[boundary] < target) {
+        above += octave_energy[boundary];
+        count_above += octave_count[boundary];
+        --boundary;
+      }
+      // Keys above the boundary octave first, then the boundary's, then the rest.
+      scratch.resize(nz.size());
+      size_t hi_pos = 0, mid_pos = count_above, lo_pos = count_above + octave_count[boundary];
+      for (uint64_t key : nz) {
+        const int oct = Octave(key);
+        scratch[oct > boundary ? hi_pos++ : oct == boundary ? mid_pos++ : lo_pos++] = key;
+      }
+      nz.swap(scratch);
+      size_t lo = count_above, hi = count_above + octave_count[boundary];
+      double acc = above;
       while (hi - lo > 1) {
         const size_t mid = lo + (hi - lo) / 2;
         std::nth_element(nz.begin() + lo, nz.begin() + mid, nz.begin() + hi, larger);
@@ -331,6 +375,7 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
     VertexTexels t;
     std::vector<float> acc(local_dirs.size(), 0.0f);  // texel sums over a footprint's normals
     std::vector<FootprintSample> samples;
+    std::vector<float> sample_view;  // GGX: a sample's weight times its GgxViewFactor
     Truncator truncator;
     // Haar row from texel values: splat onto the global map, transform, truncate.
     auto emit_haar = [&](size_t row, const std::vector<float>& values, const std::vector<int>& texels) {
@@ -478,15 +523,37 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
           const float hc = static_cast<float>(half_cutoff[b]), mc = static_cast<float>(mirror_cutoff[b]);
           values.clear();
           support.clear();
+          // GGX is evaluated factored (BrdfLobe::GgxViewFactor): what depends on the
+          // view alone once per sample, the Fresnel term once per texel.
+          const bool microfacet = lobe.model == BrdfModel::kGgx || lobe.model == BrdfModel::kCookTorrance;
+          const bool ggx = lobe.model == BrdfModel::kGgx;
+          const float f0 = static_cast<float>(lobe.f0);
           if (samples.size() <= 1 || spread < lobe_min_spread[b]) {
             // The vertex normal alone.
+            if (!(wo.z() > 0)) {
+              finish(store.vertex_rows_ + size_t(obs) * store.num_dependent_ + store.slot_[b]);
+              continue;
+            }
+            const float view_factor = ggx ? lobe.GgxViewFactor<float>(wo.z()) : 0.0f;
             for (int j : visible) {
               const Eigen::Vector3f& wi = t.dir_local[j];
-              if (mc > -1 && wi.dot(mirror0) < mc) continue;
-              if (hc > -1 && (wi + wo).normalized().z() < hc) continue;
-              const float f = lobe.Eval<float>(wi, wo);
-              if (f <= 0) continue;
-              values.push_back(f * t.weight[j] * wi.z());
+              const float cos_mirror = wi.dot(mirror0);
+              if (mc > -1 && cos_mirror < mc) continue;
+              float f_cos;  // f(wi, wo) cos_i
+              if (microfacet) {
+                Eigen::Vector3f h = wi + wo;
+                const float h_norm = h.norm();
+                if (!(h_norm > 1e-12f)) continue;
+                h /= h_norm;
+                if (hc > -1 && h.z() < hc) continue;
+                const float o_dot_h = std::max(0.0f, wo.dot(h));
+                f_cos = ggx ? view_factor * brdf_internal::Schlick(f0, o_dot_h) * lobe.GgxHalfFactor<float>(wi.z(), h.z())
+                            : lobe.EvalCosines<float>(wi.z(), wo.z(), h.z(), o_dot_h, 0.0f) * wi.z();
+              } else {
+                f_cos = lobe.EvalCosines<float>(wi.z(), wo.z(), 0.0f, 0.0f, cos_mirror) * wi.z();
+              }
+              if (!(f_cos > 0)) continue;
+              values.push_back(f_cos * t.weight[j]);
               support.push_back(j);
             }
           } else {
@@ -496,7 +563,11 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
             // The lobe at each sample's normal from rotation-invariant cosines
             // (BrdfLobe::EvalCosines): no change of frame per sample and texel,
             // and the half vector (and wo·h) is the same for every sample.
-            const bool microfacet = lobe.model == BrdfModel::kGgx || lobe.model == BrdfModel::kCookTorrance;
+            if (ggx) {
+              sample_view.resize(samples.size());
+              for (size_t s = 0; s < samples.size(); ++s)
+                sample_view[s] = samples[s].weight * lobe.GgxViewFactor<float>(samples[s].wo.z());
+            }
             for (int j : visible) {
               const Eigen::Vector3f& wi = t.dir_local[j];
               if (wi.dot(mirror0) < mc_union) continue;
@@ -511,17 +582,29 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
                 o_dot_h = std::max(0.0f, wo.dot(h));
               }
               float sum = 0.0f;
-              for (const FootprintSample& sm : samples) {
-                const float cos_mirror = wi.dot(sm.mirror);
-                if (mc > -1 && cos_mirror < mc) continue;
-                const float cos_i = sm.normal.dot(wi);
-                if (cos_i <= 0) continue;
-                const float cos_h = microfacet ? h.dot(sm.normal) : 0.0f;
-                if (hc > -1 && cos_h < hc) continue;
-                const float f = lobe.EvalCosines<float>(cos_i, sm.wo.z(), cos_h, o_dot_h, cos_mirror);
-                if (f > 0) sum += sm.weight * f * cos_i;
+              if (ggx) {
+                for (size_t s = 0; s < samples.size(); ++s) {
+                  const FootprintSample& sm = samples[s];
+                  const float cos_i = sm.normal.dot(wi);
+                  if (cos_i <= 0) continue;
+                  const float cos_h = h.dot(sm.normal);
+                  if (hc > -1 && cos_h < hc) continue;
+                  sum += sample_view[s] * lobe.GgxHalfFactor<float>(cos_i, cos_h);
+                }
+                sum *= brdf_internal::Schlick(f0, o_dot_h);
+              } else {
+                for (const FootprintSample& sm : samples) {
+                  const float cos_mirror = wi.dot(sm.mirror);
+                  if (mc > -1 && cos_mirror < mc) continue;
+                  const float cos_i = sm.normal.dot(wi);
+                  if (cos_i <= 0) continue;
+                  const float cos_h = microfacet ? h.dot(sm.normal) : 0.0f;
+                  if (hc > -1 && cos_h < hc) continue;
+                  const float f = lobe.EvalCosines<float>(cos_i, sm.wo.z(), cos_h, o_dot_h, cos_mirror);
+                  if (f > 0) sum += sm.weight * f * cos_i;
+                }
               }
-              if (sum <= 0) continue;
+              if (!(sum > 0)) continue;
               values.push_back(sum * t.weight[j]);
               support.push_back(j);
             }
