@@ -30,6 +30,7 @@ void WriteObservations(const std::string& path, const ObservationSet& set) {
     Put(&out, o.confidence);
     out.append(reinterpret_cast<const char*>(o.view_local), 12);
     Put(&out, o.flags);
+    Put(&out, o.kernel_scale);
   }
   WriteFileAtomic(path, out);
 }
@@ -57,7 +58,7 @@ ObservationSet ReadObservations(const std::string& path) {
   get(&set.num_photos, 4);
   get(&set.num_vertices, 4);
   get(&count, 8);
-  const size_t record_bytes = version == 1 ? 36 : 40;  // version 1 had no flags
+  const size_t record_bytes = version == 1 ? 36 : version <= 3 ? 40 : 44;  // 1 had no flags, 4 added kernel_scale
   if (data.size() - pos != count * record_bytes) damaged("size does not match the record count");
   set.records.resize(count);
   for (Observation& o : set.records) {
@@ -67,6 +68,10 @@ ObservationSet ReadObservations(const std::string& path) {
     get(&o.confidence, 4);
     get(o.view_local, 12);
     if (version >= 2) get(&o.flags, 4);
+    if (version >= 4) {
+      get(&o.kernel_scale, 4);
+      if (!(o.kernel_scale > 0 && o.kernel_scale < 1e6f)) damaged("kernel_scale not a positive number");
+    }
     if (o.flags & ~(kObservationLowerBound | kObservationBoundChannels)) damaged("unknown flags");
     if (version < 3 && (o.flags & kObservationBoundChannels)) damaged("per-channel flags in a version 2 file");
     if ((o.flags & kObservationBoundChannels) && !(o.flags & kObservationLowerBound)) {

@@ -19,6 +19,11 @@ struct Observation {
   float confidence = 0;             // alpha_y in [0, 1]
   float view_local[3] = {0, 0, 1};  // unit direction to the camera, vertex's local frame (sphere/frame.h)
   uint32_t flags = 0;               // kObservationLowerBound, kObservationBoundChannels
+  // Radius of what `rgb` averages, as a ratio to the nominal disc (footprint_scale ×
+  // the vertex's area radius): the image-space disc's taps and the pyramid pixels'
+  // own width, as the radius of the disc with the same second moment (>= 1 in
+  // practice; 1 in files before version 4). FootprintKernelRadiusPx in observe.h.
+  float kernel_scale = 1.0f;
 
   bool lower_bound() const;       // some channel is a lower bound
   bool lower_bound(int c) const;  // channel c is a lower bound
@@ -65,7 +70,7 @@ struct ObservedPhoto {
 };
 
 inline constexpr char kObservationsMagic[8] = {'R', 'L', 'O', 'B', 'S', 0, 0, 0};
-inline constexpr uint32_t kObservationsVersion = 3;  // 2 added `flags`, 3 per-channel bounds; 1 and 2 still read
+inline constexpr uint32_t kObservationsVersion = 4;  // 2 added `flags`, 3 per-channel bounds, 4 `kernel_scale`; 1 to 3 still read
 
 // Writes atomically. Throws UserError naming the file on I/O failure.
 void WriteObservations(const std::string& path, const ObservationSet& set);

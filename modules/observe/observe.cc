@@ -128,11 +128,10 @@ struct Pyramid {
   // 1.5 to 3 pixels; returns the number of taps.
   template <typename Tap>
   int ForEachTap(const Eigen::Vector2d& center_px, double radius_px, Tap&& tap) const {
-    int level = 0;
-    while (level + 1 < static_cast<int>(weighted.size()) && radius_px / (1 << (level + 1)) >= 1.5) ++level;
+    const FootprintTaps layout = FootprintTapLayout(radius_px, static_cast<int>(weighted.size()));
+    const int level = layout.level, k = layout.taps;
     const double s = 1.0 / (1 << level);
-    const double r = radius_px * s;
-    const int k = std::clamp(static_cast<int>(std::ceil(r)), 1, 3);
+    const double r = layout.radius;
     int n = 0;
     for (int j = -k; j <= k; ++j) {
       for (int i = -k; i <= k; ++i) {
@@ -172,6 +171,36 @@ struct Pyramid {
     for (int q = 0; q < 3; ++q) mean[q] = static_cast<float>(sum[q] / std::max(1, n));
   }
 };
+
+}  // namespace
+
+FootprintTaps FootprintTapLayout(double radius_px, int levels) {
+  FootprintTaps t;
+  while (t.level + 1 < levels && radius_px / (1 << (t.level + 1)) >= 1.5) ++t.level;
+  t.radius = radius_px / (1 << t.level);
+  t.taps = std::clamp(static_cast<int>(std::ceil(t.radius)), 1, 3);
+  return t;
+}
+
+double FootprintKernelRadiusPx(double radius_px, int levels) {
+  const FootprintTaps t = FootprintTapLayout(radius_px, levels);
+  // Mean squared distance of the taps from the centre (the same grid as ForEachTap).
+  double sum = 0;
+  int n = 0;
+  for (int j = -t.taps; j <= t.taps; ++j)
+    for (int i = -t.taps; i <= t.taps; ++i) {
+      const double dx = t.radius * i / t.taps, dy = t.radius * j / t.taps;
+      if (dx * dx + dy * dy > t.radius * t.radius + 1e-9) continue;
+      sum += dx * dx + dy * dy;
+      ++n;
+    }
+  const double pixel = double(1 << t.level);  // level pixel in level-0 pixels
+  // E|d|² of the kernel = taps' (in level-0 pixels) + 2 × pixel² / 4; a uniform disc of radius R has R² / 2.
+  const double second_moment = sum / n * pixel * pixel + 0.5 * pixel * pixel;
+  return std::sqrt(2.0 * second_moment);
+}
+
+namespace {
 
 double Ramp(double x, double zero_at, double one_at) {
   if (one_at == zero_at) return x >= one_at ? 1.0 : 0.0;
@@ -222,13 +251,17 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
     const int ix = std::clamp(static_cast<int>(px.x()), 0, w - 1), iy = std::clamp(static_cast<int>(px.y()), 0, h - 1);
     const double d = depth.at(ix, iy);
     if (d <= 0 || std::abs(d - p_cam.z()) > o.depth_tolerance * p_cam.z() + edge_tolerance) return;  // occluded
-    const double radius_px =
-        std::max(0.5, o.footprint_scale * focal * footprint_radius[v] * std::sqrt(cos_view) / p_cam.z());
+    const double nominal_px = o.footprint_scale * focal * footprint_radius[v] * std::sqrt(cos_view) / p_cam.z();
+    const double radius_px = std::max(0.5, nominal_px);
     const double edge_factor =
         o.edge_margin_px > 0 ? Ramp(edge_distance.at(ix, iy) - radius_px, 0.0, o.edge_margin_px) : 1.0;
     if (edge_factor <= 0) return;
     Observation obs;
     const double pixel_confidence = pyramid.Sample(px, radius_px, obs.rgb);
+    if (nominal_px > 0) {
+      obs.kernel_scale = static_cast<float>(
+          FootprintKernelRadiusPx(radius_px, static_cast<int>(pyramid.weighted.size())) / nominal_px);
+    }
     const double angle_deg = std::acos(std::min(1.0, cos_view)) * 180.0 / M_PI;
     const double geometric_confidence = Ramp(angle_deg, o.grazing_min_deg, o.grazing_full_deg) * edge_factor;
     double confidence = pixel_confidence * geometric_confidence;

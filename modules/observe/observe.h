@@ -39,6 +39,27 @@ Image DepthEdgeDistance(const Image& depth, double relative_jump);
 // its incident faces) of the surface area.
 std::vector<float> VertexFootprintRadius(const TriangleMesh& mesh);
 
+// Where the footprint of a disc of `radius_px` (level-0 pixels) is sampled in a
+// pyramid of `levels` levels: the level, the disc's radius in that level's
+// pixels, and the taps per half axis. The taps are the points of a
+// (2 taps + 1)² grid of step radius / taps inside the disc.
+struct FootprintTaps {
+  int level = 0;
+  double radius = 0;  // in pixels of `level`
+  int taps = 1;
+};
+FootprintTaps FootprintTapLayout(double radius_px, int levels);
+
+// Radius (level-0 pixels) of the disc with the same second moment as what an
+// observation of a disc of `radius_px` averages: the taps' own spread, plus the
+// width of the pixels they read (at level L, the bilinear tent between pixels
+// 2^L apart and each pixel's box of 2^L photo pixels: together a variance of
+// 4^L / 4 per axis). It exceeds `radius_px` by a few to 20 % at the levels the
+// taps use (1.5 to 3 pixels per radius), more for footprints of a pixel or less;
+// the transport rows average their normals over a disc this much wider
+// (Observation::kernel_scale).
+double FootprintKernelRadiusPx(double radius_px, int levels);
+
 // One photo ready for observation.
 struct PhotoView {
   Camera camera;        // at the radiance image's resolution

@@ -11,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kObserveStage{
-    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 7};
+    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 8};
 
 struct ObserveOptions {
   double grazing_min_deg = 80.0;      // View angles beyond this (from the normal) get confidence 0.

@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 9};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 10};
 
 struct InverseOptions {
   // Lighting representation.
@@ -85,7 +85,7 @@ struct InverseOptions {
         .Range(1, 16384);
     t->Add("transport_footprint", &transport_footprint,
            "Pixel route: each row is the mean over the observation's footprint on the surface (the disc `observe` "
-           "averages the photo over, observe.footprint_scale), with the mesh's interpolated normals inside it, instead "
+           "averages the photo over: observe.footprint_scale, widened by its pixels' width, kernel_scale), with the mesh's interpolated normals inside it, instead "
            "of the vertex normal alone, so narrow lobes predict the highlight the pixels saw. auto: on for a given "
            "mesh (mesh.source ground_truth or file), whose normals are the surface's; off for an MVS reconstruction, "
            "whose normals inside a footprint are estimates (measured in docs/RESULTS.md).")

@@ -82,9 +82,8 @@ namespace {
 struct FootprintSample {
   Eigen::Vector3f normal;
   float weight;
-  Eigen::Vector3f wo;      // view direction in the sample's own frame
+  float cos_o;             // cosine between the sample's normal and the view direction
   Eigen::Vector3f mirror;  // view direction mirrored about the sample's normal
-  const LocalFrame<float>* frame;
 };
 
 // One sparse row under construction.
@@ -247,6 +246,14 @@ void Splat(const Eigen::Vector3f& dir_world, int n, std::array<uint16_t, 4>* idx
 
 }  // namespace
 
+Eigen::Vector3f FootprintNormals::ScaledNormal(uint32_t s, float g) const {
+  // The renderer's linear interpolation along the edge, in the vertex's frame (where its normal is +Z).
+  const float t = std::min(1.0f, g * reach[s]);
+  const Eigen::Vector3f z(0.0f, 0.0f, 1.0f);
+  const Eigen::Vector3f m = z + t * (toward_local[s] - z);
+  return m.squaredNorm() > 1e-12f ? Eigen::Vector3f(m.normalized()) : z;
+}
+
 FootprintNormals SampleFootprintNormals(const TriangleMesh& mesh, double footprint_scale) {
   const size_t nv = mesh.num_vertices();
   RELIGHT_CHECK(mesh.normals.size() == nv);
@@ -261,17 +268,18 @@ FootprintNormals SampleFootprintNormals(const TriangleMesh& mesh, double footpri
     const LocalFrame<float> frame = FrameFromNormal<float>(n);
     out.normal_local.emplace_back(0.0f, 0.0f, 1.0f);
     out.weight.push_back(1.0f);
+    out.toward_local.emplace_back(0.0f, 0.0f, 1.0f);
+    out.reach.push_back(0.0f);
     const double radius = footprint_scale * area_radius[v];
     if (radius > 0 && !nb.empty()) {
       out.weight.back() = 1.0f / 3.0f;
       const float w = static_cast<float>(2.0 / (3.0 * nb.size()));
       for (uint32_t j : nb) {
         const double edge = (mesh.vertices[j] - mesh.vertices[v]).cast<double>().norm();
-        const float t = edge > 0 ? static_cast<float>(std::min(1.0, 0.5 * std::sqrt(3.0) * radius / edge)) : 0.0f;
-        Eigen::Vector3f m = n + t * (mesh.normals[j] - n);
-        if (!(m.squaredNorm() > 1e-12f)) m = n;
-        out.normal_local.push_back(frame.ToLocal(m.normalized()));
+        out.toward_local.push_back(frame.ToLocal(mesh.normals[j]));
+        out.reach.push_back(edge > 0 ? static_cast<float>(0.5 * std::sqrt(3.0) * radius / edge) : 0.0f);
         out.weight.push_back(w);
+        out.normal_local.push_back(out.ScaledNormal(static_cast<uint32_t>(out.reach.size() - 1), 1.0f));
       }
     }
     out.first[v + 1] = static_cast<uint32_t>(out.normal_local.size());
@@ -469,8 +477,6 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
       };
       // The footprint's normals (vertex-local) and their frames.
       const uint32_t s_begin = footprint.first[v], s_end = footprint.first[v + 1];
-      std::vector<LocalFrame<float>> sample_frame;
-      for (uint32_t s = s_begin; s < s_end; ++s) sample_frame.push_back(FrameFromNormal<float>(footprint.normal_local[s]));
       // Sums texel values over the footprint's normals into `acc`, then lists the non-zero ones.
       auto gather = [&]() {
         values.clear();
@@ -499,20 +505,22 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
       // spread of mirror directions is evaluated at the vertex normal alone
       // (LobeFootprintSpread), and for the others texels outside the union of
       // the samples' lobes are skipped with one test against the vertex's own.
-      const float spread = footprint_spread[v];
+      // Each observation's normals are spread over its own kernel (kernel_scale times the nominal disc).
       for (uint32_t q = first[v]; q < first[v + 1]; ++q) {
         const uint32_t obs = by_vertex[q];
         const Observation& ob = observations.records[obs];
         const Eigen::Vector3f wo(ob.view_local[0], ob.view_local[1], ob.view_local[2]);
-        // Samples facing the camera: normal, weight, local view direction, mirror direction, frame.
+        const float g = ob.kernel_scale;
+        float spread = footprint_spread[v];
+        // Samples facing the camera: normal, weight, cosine to the view, mirror direction.
         samples.clear();
         float facing = 0.0f;
         for (uint32_t s = s_begin; s < s_end; ++s) {
-          const Eigen::Vector3f& m = footprint.normal_local[s];
+          const Eigen::Vector3f m = g == 1.0f ? footprint.normal_local[s] : footprint.ScaledNormal(s, g);
+          if (g != 1.0f) spread = std::max(spread, std::acos(std::clamp(m.z(), -1.0f, 1.0f)));
           const float cos_o = m.dot(wo);
           if (cos_o <= 0) continue;
-          const LocalFrame<float>& fs = sample_frame[s - s_begin];
-          samples.push_back({m, footprint.weight[s], fs.ToLocal(wo), 2.0f * cos_o * m - wo, &fs});
+          samples.push_back({m, footprint.weight[s], cos_o, 2.0f * cos_o * m - wo});
           facing += footprint.weight[s];
         }
         for (auto& sm : samples) sm.weight /= facing;
@@ -566,7 +574,7 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
             if (ggx) {
               sample_view.resize(samples.size());
               for (size_t s = 0; s < samples.size(); ++s)
-                sample_view[s] = samples[s].weight * lobe.GgxViewFactor<float>(samples[s].wo.z());
+                sample_view[s] = samples[s].weight * lobe.GgxViewFactor<float>(samples[s].cos_o);
             }
             for (int j : visible) {
               const Eigen::Vector3f& wi = t.dir_local[j];
@@ -600,7 +608,7 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
                   if (cos_i <= 0) continue;
                   const float cos_h = microfacet ? h.dot(sm.normal) : 0.0f;
                   if (hc > -1 && cos_h < hc) continue;
-                  const float f = lobe.EvalCosines<float>(cos_i, sm.wo.z(), cos_h, o_dot_h, cos_mirror);
+                  const float f = lobe.EvalCosines<float>(cos_i, sm.cos_o, cos_h, o_dot_h, cos_mirror);
                   if (f > 0) sum += sm.weight * f * cos_i;
                 }
               }

@@ -79,10 +79,17 @@ int TransportSupersampling(int visibility_resolution, int env_resolution, int re
 // towards every mesh neighbour at √3/2 of the footprint radius (together 2/3),
 // which integrates a quadratic function over the disc exactly for a regular
 // ring. Normals along the way are the renderer's linear interpolation.
+// An observation whose kernel is g times the nominal disc (Observation::kernel_scale)
+// takes its normals at g times the distance, up to the neighbour (ScaledNormal).
 struct FootprintNormals {
   std::vector<uint32_t> first;              // vertex v: [first[v], first[v + 1])
   std::vector<Eigen::Vector3f> normal_local;
   std::vector<float> weight;
+  std::vector<Eigen::Vector3f> toward_local;  // the neighbour's normal the sample lies towards (centre: +Z)
+  std::vector<float> reach;                   // the sample's share of the way there at g = 1, unclamped (centre: 0)
+
+  // Sample s's normal for a kernel g times the nominal disc (g = 1: normal_local[s]).
+  Eigen::Vector3f ScaledNormal(uint32_t s, float g) const;
 };
 FootprintNormals SampleFootprintNormals(const TriangleMesh& mesh, double footprint_scale);
 

@@ -221,10 +221,14 @@ TEST(TransportTest, AGlobalMapFinerThanTheVisibilityIsSupersampled) {
 // area radius. The truth here is the renderer's mean over points spread evenly
 // over that disc (camera rays through them, interpolated normals at the hits).
 struct FootprintErrors {
-  std::vector<double> footprint_rows, vertex_rows;  // relative error per observation against the footprint mean
+  // Relative error per observation against the footprint mean: rows over the observation's
+  // kernel, rows at the vertex normal, rows over the nominal disc (kernel_scale ignored).
+  std::vector<double> footprint_rows, vertex_rows, nominal_rows;
 };
 
-FootprintErrors CompareFootprints() {
+// `kernel`: every observation averages a disc `kernel` times the vertex's area
+// radius (Observation::kernel_scale), as `observe` reports for its pixels' width.
+FootprintErrors CompareFootprints(double kernel = 1.0) {
   TriangleMesh sphere = MakeIcosphere(4);  // 2562 vertices, neighbouring normals about 4° apart
   for (auto& v : sphere.vertices) v.z() += 1.0f;
   sphere.ComputeVertexNormals();
@@ -265,6 +269,7 @@ FootprintErrors CompareFootprints() {
       ob.vertex = v;
       ob.photo = static_cast<uint32_t>(ci);
       ob.confidence = 1;
+      ob.kernel_scale = static_cast<float>(kernel);
       const Eigen::Vector3d local = FrameFromNormal<double>(nrm).ToLocal(to_cam);
       for (int k = 0; k < 3; ++k) ob.view_local[k] = static_cast<float>(local[k]);
       obs.records.push_back(ob);
@@ -292,6 +297,9 @@ FootprintErrors CompareFootprints() {
   to.max_coefficients = n2;
   to.footprint_scale = 1.0;
   const TransportStore footprint_rows = BuildTransport(sphere, visibility, obs, to);
+  ObservationSet nominal_obs = obs;
+  for (Observation& ob : nominal_obs.records) ob.kernel_scale = 1.0f;
+  const TransportStore nominal_rows = BuildTransport(sphere, visibility, nominal_obs, to);
   to.footprint_scale = 0.0;
   const TransportStore vertex_rows = BuildTransport(sphere, visibility, obs, to);
 
@@ -305,7 +313,7 @@ FootprintErrors CompareFootprints() {
     const Eigen::Vector3d cam = cameras[ob.photo];
     const Eigen::Vector3d x = sphere.vertices[ob.vertex].cast<double>();
     const LocalFrame<double> frame = FrameFromNormal<double>(sphere.normals[ob.vertex].cast<double>());
-    const double radius = area_radius[ob.vertex];
+    const double radius = kernel * area_radius[ob.vertex];
     Eigen::Vector3d truth = Eigen::Vector3d::Zero();
     int points = 0;
     for (int k = 0; k < kPoints; ++k) {
@@ -321,12 +329,14 @@ FootprintErrors CompareFootprints() {
     }
     if (points < kPoints / 2) continue;
     truth /= points;
-    float pf[3], pv[3];
+    float pf[3], pv[3], pn[3];
     Predict(footprint_rows, obs, o, r, l, pf);
     Predict(vertex_rows, obs, o, r, l, pv);
+    Predict(nominal_rows, nominal_obs, o, r, l, pn);
     const double norm = std::max(1e-6, truth.norm());
     out.footprint_rows.push_back((Eigen::Vector3d(pf[0], pf[1], pf[2]) - truth).norm() / norm);
     out.vertex_rows.push_back((Eigen::Vector3d(pv[0], pv[1], pv[2]) - truth).norm() / norm);
+    out.nominal_rows.push_back((Eigen::Vector3d(pn[0], pn[1], pn[2]) - truth).norm() / norm);
   }
   return out;
 }
@@ -351,6 +361,30 @@ TEST(TransportTest, FootprintRowsPredictWhatAPixelFootprintSees) {
               rms_vertex);
   EXPECT_LE(Quantile(e.footprint_rows, 0.5), 0.05);
   EXPECT_LE(rms_footprint, 0.6 * rms_vertex);
+}
+
+// What `observe` averages is wider than the nominal disc (its pixels have a
+// width: Observation::kernel_scale, about 1.1-1.4 on the synthetic scenes).
+// Rows spread their normals over each observation's kernel; here every
+// observation averages a disc 1.6 times the area radius, and rows that ignore
+// kernel_scale predict a highlight that is too narrow and too high. Measured
+// (48 observations): RMS relative error 0.131 over the kernel against 0.173
+// over the nominal disc (medians 0.017 / 0.014; the 7-point quadrature is
+// coarser on the wider disc than at 1, where the RMS is 0.064).
+TEST(TransportTest, FootprintRowsFollowEachObservationsKernel) {
+  InitLogging("transport_test", "", LogLevel::kWarning);
+  setenv("RELIGHT_PROGRESS", "off", 1);
+  FootprintErrors e = CompareFootprints(1.6);
+  ASSERT_GT(e.footprint_rows.size(), 20u);
+  const double rms_kernel = Rms(e.footprint_rows), rms_nominal = Rms(e.nominal_rows);
+  std::sort(e.footprint_rows.begin(), e.footprint_rows.end());
+  std::sort(e.nominal_rows.begin(), e.nominal_rows.end());
+  std::printf("%zu highlight observations of a disc 1.6 times the area radius: relative error: rows over the kernel "
+              "median %.4f, RMS %.4f; rows over the nominal disc median %.4f, RMS %.4f\n",
+              e.footprint_rows.size(), Quantile(e.footprint_rows, 0.5), rms_kernel, Quantile(e.nominal_rows, 0.5),
+              rms_nominal);
+  EXPECT_LE(Quantile(e.footprint_rows, 0.5), 0.05);
+  EXPECT_LE(rms_kernel, 0.8 * rms_nominal);
 }
 
 }  // namespace
