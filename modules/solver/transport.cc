@@ -136,32 +136,14 @@ struct Truncator {
            std::vector<float>* value) {
     nz.clear();
     double total = 0;
-    int top = 0, bottom = 255;  // octaves in use
     for (int k = 0; k < size; ++k) {
       if (coeffs[k] == 0.0f) continue;
       const float e = coeffs[k] * coeffs[k];
       uint32_t bits;
       std::memcpy(&bits, &e, sizeof bits);
-      const uint64_t key = (uint64_t(bits) << 16) | (0xFFFFu - static_cast<uint32_t>(k));
-      nz.push_back(key);
-      const int oct = Octave(key);
-      if (oct > top) top = oct;
-      if (oct < bottom) bottom = oct;
-      octave_energy[oct] += e;
-      ++octave_count[oct];
+      nz.push_back((uint64_t(bits) << 16) | (0xFFFFu - static_cast<uint32_t>(k)));
       total += e;
     }
-    // The octaves' sums are reset whichever way this returns.
-    struct Reset {
-      Truncator* t;
-      int bottom, top;
-      ~Reset() {
-        for (int q = bottom; q <= top; ++q) {
-          t->octave_energy[q] = 0;
-          t->octave_count[q] = 0;
-        }
-      }
-    } reset{this, bottom, top};
     index->clear();
     value->clear();
     if (nz.empty()) return;
@@ -181,7 +163,15 @@ struct Truncator {
     // [lo, hi) the next ones; acc + their sum >= target (or hi = n).
     size_t keep = 0;
     if (target > 0) {
-      // The octave where the sum from the top reaches the target.
+      // Energy and count per octave, then the octave where the sum from the top reaches the target.
+      int top = 0, bottom = 255;  // octaves in use
+      for (uint64_t key : nz) {
+        const int oct = Octave(key);
+        top = std::max(top, oct);
+        bottom = std::min(bottom, oct);
+        octave_energy[oct] += Energy(key);
+        ++octave_count[oct];
+      }
       int boundary = top;
       double above = 0;  // energy of the octaves above `boundary`
       size_t count_above = 0;
@@ -199,6 +189,10 @@ struct Truncator {
       }
       nz.swap(scratch);
       size_t lo = count_above, hi = count_above + octave_count[boundary];
+      for (int q = bottom; q <= top; ++q) {  // cleared for the next row
+        octave_energy[q] = 0;
+        octave_count[q] = 0;
+      }
       double acc = above;
       while (hi - lo > 1) {
         const size_t mid = lo + (hi - lo) / 2;
