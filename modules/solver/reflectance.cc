@@ -1,7 +1,6 @@
 #include "solver/reflectance.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -14,6 +13,21 @@
 #include "sphere/envmap.h"
 
 namespace relight {
+
+namespace {
+
+// Fixed blocks of a range for parallel sums that are added in block order, so
+// that a sum does not depend on which thread took which block (tbb::combinable's
+// per-thread sums do): at least 4,096 items per block, at most 256 blocks.
+struct BlockLayout {
+  size_t size, block, count;
+  explicit BlockLayout(size_t n)
+      : size(n), block(std::max<size_t>(4096, (n + 255) / 256)), count((n + block - 1) / block) {}
+  size_t begin(size_t b) const { return b * block; }
+  size_t end(size_t b) const { return std::min(size, (b + 1) * block); }
+};
+
+}  // namespace
 
 std::vector<float> ComputeLobeResponses(const TransportStore& transport, const ObservationSet& observations,
                                         const std::vector<uint32_t>& ids, const LightingState& lighting) {
@@ -495,11 +509,15 @@ void SolveMaterials(const ObservationSet& observations, const std::vector<uint32
       Eigen::MatrixXd g;
       Eigen::VectorXd h;
     };
-    tbb::combinable<Acc> acc([&] { return Acc{Eigen::MatrixXd::Zero(dim, dim), Eigen::VectorXd::Zero(dim)}; });
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, train.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
-      Acc& a = acc.local();
+    // One partial sum per fixed block, added in block order: the same result on every run.
+    const BlockLayout layout(train.size());
+    std::vector<Acc> partial(layout.count);
+    tbb::parallel_for(size_t(0), layout.count, [&](size_t blk) {
+      Acc& a = partial[blk];
+      a.g = Eigen::MatrixXd::Zero(dim, dim);
+      a.h = Eigen::VectorXd::Zero(dim);
       Eigen::VectorXd phi(dim);
-      for (size_t k = r.begin(); k < r.end(); ++k) {
+      for (size_t k = layout.begin(blk); k < layout.end(blk); ++k) {
         if (censored != nullptr && !censored->empty() && (*censored)[k * 3 + c]) continue;
         const Observation& ob = observations.records[train[k]];
         const double alpha = robust != nullptr ? double(ob.confidence) * (*robust)[k] : double(ob.confidence);
@@ -513,10 +531,10 @@ void SolveMaterials(const ObservationSet& observations, const std::vector<uint32
     });
     Eigen::MatrixXd g = Eigen::MatrixXd::Zero(dim, dim);
     Eigen::VectorXd h = Eigen::VectorXd::Zero(dim);
-    acc.combine_each([&](const Acc& a) {
+    for (const Acc& a : partial) {
       g += a.g;
       h += a.h;
-    });
+    }
     g = Eigen::MatrixXd(g.selfadjointView<Eigen::Lower>());
     g.diagonal().array() += 1e-9 * std::max(1e-30, g.diagonal().maxCoeff());
     // Disabled lobes (model selection) are pinned at zero.
@@ -602,11 +620,12 @@ void ResidualStats(const ObservationSet& observations, const std::vector<uint32_
   struct Acc {
     double sse = 0, w = 0;
   };
-  tbb::combinable<Acc> acc;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, ids.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
-    Acc& a = acc.local();
+  const BlockLayout layout(ids.size());  // fixed blocks summed in order: reproducible
+  std::vector<Acc> partial(layout.count);
+  tbb::parallel_for(size_t(0), layout.count, [&](size_t blk) {
+    Acc& a = partial[blk];
     std::vector<float> rho(b_count * 3);
-    for (size_t k = r.begin(); k < r.end(); ++k) {
+    for (size_t k = layout.begin(blk); k < layout.end(blk); ++k) {
       const Observation& ob = observations.records[ids[k]];
       const double alpha = robust != nullptr ? double(ob.confidence) * (*robust)[k] : double(ob.confidence);
       state.VertexLobeWeights(ob.vertex, rho.data());
@@ -622,10 +641,10 @@ void ResidualStats(const ObservationSet& observations, const std::vector<uint32_
   });
   *sse = 0;
   *weight = 0;
-  acc.combine_each([&](const Acc& a) {
+  for (const Acc& a : partial) {
     *sse += a.sse;
     *weight += a.w;
-  });
+  }
 }
 
 }  // namespace relight

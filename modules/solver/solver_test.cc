@@ -3,6 +3,7 @@
 // recover what generated the data. Accuracy against an independent Monte
 // Carlo renderer is tested in tests/ on synthetic photo collections.
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -722,6 +723,36 @@ TEST(InverseOptionsTest, FootprintRowsFollowTheMeshSource) {
 
 // inverse.init_gloss with several values: one whole alternation per start, the lowest held-out error
 // kept, and the kept start's result is exactly what that start alone gives.
+// A solve gives the same numbers whatever the threads do: its parallel sums
+// (materials' normal equations, residuals) add fixed blocks in block order, so
+// one thread and two give bit-identical results. Per-thread partial sums
+// (tbb::combinable) gave results that changed in the last digits from run to
+// run, and could flip a choice that compares two scores (the starts' race).
+TEST_F(SolverTest, SolveIsBitIdenticalOnOneOrTwoThreads) {
+  const std::vector<std::string> basis = {"lambertian", "phong:50"};
+  const Scene s = MakeScene(basis, true);
+  ASSERT_GT(s.problem.observations.records.size(), 3u * 4096u);  // several blocks
+  InverseOptions o = BaseOptions(basis);
+  o.holdout_fraction = 0.1;
+  o.max_iterations = 3;
+  o.tolerance = 0;
+  std::vector<InverseResult> results;
+  for (int threads : {1, 2}) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] { results.push_back(SolveInverse(s.problem, o, nullptr)); });
+  }
+  const InverseResult &a = results[0], &b = results[1];
+  ASSERT_EQ(a.reflectance.weights.size(), b.reflectance.weights.size());
+  for (size_t k = 0; k < a.reflectance.weights.size(); ++k) ASSERT_EQ(a.reflectance.weights[k], b.reflectance.weights[k]) << k;
+  for (size_t k = 0; k < a.reflectance.coefficients.size(); ++k)
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(a.reflectance.coefficients[k][c], b.reflectance.coefficients[k][c]) << k;
+  for (size_t i = 0; i < a.lighting.values.size(); ++i)
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(a.lighting.values[i][c], b.lighting.values[i][c]) << "photo " << i;
+  ASSERT_EQ(a.summary.iterations.size(), b.summary.iterations.size());
+  for (size_t k = 0; k < a.summary.iterations.size(); ++k)
+    EXPECT_EQ(a.summary.iterations[k].holdout_rmse, b.summary.iterations[k].holdout_rmse);
+}
+
 TEST_F(SolverTest, SeveralStartsKeepTheLowestHeldOutError) {
   const std::vector<std::string> basis = {"lambertian", "phong:50"};
   const Scene s = MakeScene(basis, true);
