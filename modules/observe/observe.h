@@ -54,8 +54,8 @@ FootprintTaps FootprintTapLayout(double radius_px, int levels);
 // observation of a disc of `radius_px` averages: the taps' own spread, plus the
 // width of the pixels they read (at level L, the bilinear tent between pixels
 // 2^L apart and each pixel's box of 2^L photo pixels: together a variance of
-// 4^L / 4 per axis). It exceeds `radius_px` by a few to 20 % at the levels the
-// taps use (1.5 to 3 pixels per radius), more for footprints of a pixel or less;
+// 4^L / 4 per axis). It exceeds `radius_px` by 7 to 23 % at the coarser levels
+// (1.5 to 3 pixels per radius), more at level 0 (footprints of 3 pixels or less);
 // the transport rows average their normals over a disc this much wider
 // (Observation::kernel_scale).
 double FootprintKernelRadiusPx(double radius_px, int levels);
