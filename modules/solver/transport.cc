@@ -469,7 +469,7 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
           out.push_back(std::move(pr));
         }
       };
-      // The footprint's normals (vertex-local) and their frames.
+      // The footprint's normals (vertex-local).
       const uint32_t s_begin = footprint.first[v], s_end = footprint.first[v + 1];
       // Sums texel values over the footprint's normals into `acc`, then lists the non-zero ones.
       auto gather = [&]() {
