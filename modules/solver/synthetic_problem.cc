@@ -197,9 +197,11 @@ SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
 }
 
 double LightingRelativeError(const SyntheticProblem& s, const LightingState& l) {
-  const int env = l.env_resolution;
   double err = 0, norm = 0;
   for (size_t i = 0; i < s.truth.lighting_oct_rgb.size(); ++i) {
+    // The truth's grid; SH maps are evaluated on it (their `values` are coefficients).
+    const int env = static_cast<int>(std::lround(std::sqrt(s.truth.lighting_oct_rgb[i].size() / 3.0)));
+    const std::vector<float> estimate = l.OctahedralRgb(static_cast<int>(i), env);
     for (int c = 0; c < 3; ++c) {
       double ab = 0, bb = 0;
       std::vector<std::pair<double, double>> pairs;
@@ -207,7 +209,7 @@ double LightingRelativeError(const SyntheticProblem& s, const LightingState& l) 
         const Eigen::Vector3d d = OctTexelDirection(k % env, k / env, env);
         if (d.z() < 0.15) continue;  // below: hidden by the ground from every vertex
         const double w = OctTexelSolidAngle(k % env, k / env, env);
-        const double t = s.truth.lighting_oct_rgb[i][k * 3 + c], e = l.values[i][c][k];
+        const double t = s.truth.lighting_oct_rgb[i][k * 3 + c], e = estimate[k * 3 + c];
         pairs.emplace_back(t * std::sqrt(w), e * std::sqrt(w));
         ab += t * e * w;
         bb += e * e * w;
