@@ -118,6 +118,27 @@ TEST_F(PipelineCliTest, StagesAndOptionsAreListed) {
   EXPECT_EQ(Pipeline("options nosuchstage", &out), 2);
 }
 
+// Every config the project ships resolves: known keys and values, existing inputs (the data of
+// ../shared beside the checkout and Debian's blender-data, which tools/setup_debian.sh installs).
+// configs/liberty.yaml reads a folder the user downloads, so there the message must name it.
+TEST_F(PipelineCliTest, ShippedConfigsResolve) {
+  int checked = 0;
+  for (const auto& entry : fs::directory_iterator(testing::SourceDir() + "/configs")) {
+    if (entry.path().extension() != ".yaml") continue;
+    std::string out;
+    const int rc = Pipeline("status " + entry.path().string() + " --workspace " + (dir_ / "ws"), &out);
+    if (entry.path().filename() == "liberty.yaml" && !fs::exists(entry.path().parent_path() / "../../data/liberty")) {
+      EXPECT_EQ(rc, 2) << out;
+      EXPECT_NE(out.find("ingest.images"), std::string::npos) << out;
+      EXPECT_NE(out.find("data/liberty"), std::string::npos) << out;
+    } else {
+      EXPECT_EQ(rc, 0) << entry.path() << ":\n" << out;
+    }
+    ++checked;
+  }
+  EXPECT_GE(checked, 9);
+}
+
 TEST_F(PipelineCliTest, ConfigReferenceIsUpToDate) {
   // configs/README.md embeds `pipeline options --markdown`; regenerate it with
   // tools/update_config_reference.sh after changing any option.
