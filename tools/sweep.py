@@ -3,7 +3,8 @@
 
   tools/sweep.py pareto    [options]   accuracy against speed: lighting basis (SH orders,
                                        Haar map sizes and coefficient budgets), visibility
-                                       resolution, number of basis BRDFs
+                                       resolution, number of basis BRDFs, transport route,
+                                       outer iterations, number of materials
   tools/sweep.py stability [options]   accuracy where methods fail: photo count, noise, JPEG
                                        quality, white balance, over-exposure, geometry
                                        smoothing, materials, illumination, interreflection;
@@ -58,6 +59,16 @@ def pareto_settings():
     for lobes, basis in ((1, "[lambertian]"), (2, "[lambertian, phong:50]")):
         s.append(("Haar 32x32 basis BRDFs", f"Haar 32² {lobes} basis BRDF{'s' if lobes > 1 else ''}", lobes,
                   [f"inverse.basis={basis}"]))
+    # The seed's transport route (product projection + blended wavelet rotation) against the exact
+    # pixel route of the default, at the default 32² maps.
+    s.append(("Haar 32x32 wavelet route", "Haar 32² wavelet route", 32, ["inverse.transport=wavelet"]))
+    # The alternation's length: the sweep config's 4 iterations (2 coarse) against the stage defaults.
+    for iters in (8, 12):
+        s.append(("Haar 32x32 iterations", f"Haar 32² {iters} iterations", iters,
+                  [f"inverse.max_iterations={iters}", "inverse.coarse_iterations=3"]))
+    # Model size: fewer and more materials than the default 6.
+    for m in (3, 10):
+        s.append(("Haar 32x32 materials", f"Haar 32² {m} materials", m, [f"inverse.materials={m}"]))
     return s
 
 
