@@ -5,6 +5,7 @@
 #include <cmath>
 #include <ctime>
 #include <filesystem>
+#include <map>
 #include <sstream>
 
 #include "brdf/brdf.h"
@@ -369,6 +370,19 @@ class ReportBuilder {
                   "exposure."
                 : ", in the model's frame.")
       << "</p>\n";
+    // What the photos determine of each map (inverse/lighting.json, inverse.map_resolution).
+    std::map<std::string, Json> determined;
+    const std::string lighting = Input("inverse").empty() ? "" : JoinPath(Input("inverse"), "lighting.json");
+    if (IsFile(lighting)) {
+      for (const Json& p : ReadJsonFile(lighting).value("photos", Json::array()))
+        if (p.contains("determined_coefficients")) determined[p.value("name", "")] = p;
+    }
+    if (!determined.empty()) {
+      s << "<p class=\"def\">Determined by the photos: how many of the map's coefficients the photos fix (the "
+           "trace of the lighting step's resolution matrix; the rest of the map is the priors' fill-in), and the "
+           "finest detail down to which at least half of every wavelet level is fixed. A diffuse object fixes few "
+           "and coarse ones, a shiny one many and fine ones; detail finer than that in the map is not measured.</p>\n";
+    }
     std::vector<std::vector<std::string>> rows;
     const int oct_w = std::max(96, o_.tile_px / 2);
     for (size_t i : Spread(list.size(), o_.max_photos)) {
@@ -377,6 +391,19 @@ class ReportBuilder {
       std::vector<std::string> row{html::Escape(name),
                                    EvalFig(e, "oct", name + ": recovered (octahedral)", oct_w, "pixelated"),
                                    EvalFig(e, "latlong", name + ": recovered (lat-long)", 2 * oct_w)};
+      if (!determined.empty()) {
+        const auto it = determined.find(name);
+        if (it == determined.end()) {
+          row.push_back("<span class=\"na\">n/a</span>");
+        } else {
+          int total = 0;
+          for (const Json& c : it->second.value("coefficients_per_level", Json::array())) total += c.get<int>();
+          const Json& detail = it->second["resolved_detail_deg"];
+          row.push_back(html::Number(Num(it->second, "determined_coefficients"), 0) + " of " + std::to_string(total) +
+                        (detail.is_number() ? ", detail to " + html::Number(detail.get<double>(), 0) + "&deg;"
+                                            : ", the mean only"));
+        }
+      }
       if (truth) {
         row.push_back(EvalFig(e, "truth_oct", name + ": true (octahedral)", oct_w, "pixelated"));
         row.push_back(EvalFig(e, "truth_latlong", name + ": true (lat-long)", 2 * oct_w));
@@ -386,6 +413,7 @@ class ReportBuilder {
       rows.push_back(row);
     }
     std::vector<std::string> header{"photo", "recovered (oct)", "recovered (lat-long)"};
+    if (!determined.empty()) header.push_back("determined by the photos");
     if (truth) {
       for (const char* h : {"true (oct)", "true (lat-long)", "relative error", "direction error [deg]"})
         header.push_back(h);

@@ -136,6 +136,23 @@ TEST(ReportBrowser, TinySyntheticChainPageLoadsInHeadlessChromium) {
   for (const char* section : {"id=\"photos\"", "id=\"envmaps\"", "id=\"materials\"", "id=\"heldout\"", "id=\"relit\"",
                               "id=\"turntable\"", "id=\"convergence\"", "id=\"loo\"", "id=\"timings\""})
     EXPECT_NE(source.find(section), std::string::npos) << section;
+  // What the photos determine of each map (inverse.map_resolution, on at 16² maps): in lighting.json per
+  // photo, its levels adding up, and in the env-map table as "N of 256".
+  const Json lighting = ReadJsonFile(dir / "ws/stages/inverse/lighting.json");
+  for (const Json& p : lighting["photos"]) {
+    ASSERT_TRUE(p.contains("determined_coefficients")) << p.dump();
+    const double dof = p["determined_coefficients"].get<double>();
+    double sum = 0;
+    int count = 0;
+    for (const Json& d : p["determined_per_level"]) sum += d.get<double>();
+    for (const Json& c : p["coefficients_per_level"]) count += c.get<int>();
+    EXPECT_NEAR(sum, dof, 1e-6 * dof);
+    EXPECT_EQ(count, 16 * 16);
+    EXPECT_GT(dof, 1.0);
+    EXPECT_LT(dof, 256.0);
+  }
+  EXPECT_TRUE(std::regex_search(source, match, std::regex("<td>[0-9]+ of 256(, detail to [0-9]+&deg;|, the mean only)</td>")))
+      << "the env-map table's 'determined by the photos' column";
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.svg"));
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.csv"));
 }

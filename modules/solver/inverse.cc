@@ -653,6 +653,25 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
               "average",
               100 * summary.lower_bounds_missed, 100 * summary.lower_bounds_mean_shortfall);
   }
+  const bool measure_resolution =
+      o.map_resolution == "on" ||
+      (o.map_resolution == "auto" && (o.lighting_basis != "haar" || o.env_resolution <= 32));
+  if (measure_resolution && !(o.fixed_lighting && known != nullptr && known->has_lighting)) {
+    // What the photos determine of each map, under the final reflectance.
+    Timer resolution_timer;
+    summary.map_resolution =
+        LightingResolution(transport, obs, ctx.subset, result.reflectance, o, result.lighting);
+    summary.map_resolution_seconds = resolution_timer.Seconds();
+    std::vector<double> dof;
+    for (const MapResolution& m : summary.map_resolution) dof.push_back(m.dof);
+    if (!dof.empty()) {
+      std::nth_element(dof.begin(), dof.begin() + dof.size() / 2, dof.end());
+      RLOG_INFO("the photos determine a median of {:.0f} of the {} coefficients of each map ({:.1f} s)",
+                dof[dof.size() / 2], result.lighting.basis == "haar" ? o.env_resolution * o.env_resolution
+                                                                     : result.lighting.dim,
+                summary.map_resolution_seconds);
+    }
+  }
   FillUnobservedWeights(problem.mesh, ctx.observed, &result.reflectance);
   summary.seconds = total.Seconds();
   return result;
@@ -746,6 +765,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   const int n_out = o.lighting_basis == "haar" ? o.env_resolution : 32;
   Json photos_json = Json::array();
   std::vector<double> coefficients_99;  // per photo (haar)
+  std::vector<double> determined, resolved_detail;  // per photo (LightingResolution)
   for (const auto& photo : problem.photos) {
     const std::string stem = fs::path(photo.name).stem().string();
     const std::vector<float> rgb = result.lighting.OctahedralRgb(static_cast<int>(photo.index), n_out);
@@ -782,6 +802,17 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
       const size_t used = KeepEnergy(lum.data(), n_out, 0.99).size();
       entry["haar_coefficients_99"] = used;
       coefficients_99.push_back(static_cast<double>(used));
+    }
+    if (photo.index < result.summary.map_resolution.size()) {
+      // What the photos determine of this map (LightingResolution).
+      const MapResolution& m = result.summary.map_resolution[photo.index];
+      entry["determined_coefficients"] = m.dof;
+      entry["determined_per_level"] = m.dof_per_level;
+      entry["coefficients_per_level"] = m.coefficients_per_level;
+      const double detail = ResolvedDetailDegrees(m, o.lighting_basis);
+      entry["resolved_detail_deg"] = detail > 0 ? Json(detail) : Json();
+      determined.push_back(m.dof);
+      if (detail > 0) resolved_detail.push_back(detail);
     }
     photos_json.push_back(entry);
   }
@@ -868,11 +899,16 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
     }
     j["model_selection"] = {{"seconds", s.selection_seconds}, {"candidates", cands}};
   }
-  if (!coefficients_99.empty()) {
-    std::nth_element(coefficients_99.begin(), coefficients_99.begin() + coefficients_99.size() / 2,
-                     coefficients_99.end());
-    j["lighting_coefficients_99_median"] = coefficients_99[coefficients_99.size() / 2];
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  if (!coefficients_99.empty()) j["lighting_coefficients_99_median"] = median(coefficients_99);
+  if (!determined.empty()) {
+    j["lighting_determined_coefficients_median"] = median(determined);
+    j["map_resolution_seconds"] = s.map_resolution_seconds;
   }
+  if (!resolved_detail.empty()) j["lighting_resolved_detail_deg_median"] = median(resolved_detail);
   j["gauge"] = o.gauge;
   j["seconds"] = s.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "solve_summary.json"), j);

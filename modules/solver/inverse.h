@@ -12,6 +12,7 @@
 #include "geometry/mesh.h"
 #include "observe/observations.h"
 #include "solver/inverse_options.h"
+#include "solver/lighting.h"
 #include "solver/model.h"
 #include "visibility/visibility.h"
 
@@ -91,6 +92,8 @@ struct InverseSummary {
   double lower_bounds_mean_shortfall = 0;  // over those, mean (y − ŷ) / y
   std::string stop_reason;
   std::vector<StartRecord> starts;         // every start of the final model (one unless inverse.init_gloss lists several)
+  std::vector<MapResolution> map_resolution;  // per photo: what the photos determine of its map (LightingResolution)
+  double map_resolution_seconds = 0;
   std::vector<ModelCandidate> candidates;  // model selection: every model tried
   std::string chosen_model;                // the model of the final solve
   double selection_seconds = 0;

@@ -139,6 +139,75 @@ Eigen::VectorXd SolveShNonNegative(const Eigen::MatrixXd& Q, const Eigen::Vector
   return x;
 }
 
+using RowMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// One photo's lighting system at solve resolution n ≤ n_full (Haar: a coarse
+// solve keeps the top-left n × n block of the coefficients, see lighting.h):
+// per channel the rows a (pixel domain for Haar, SH coefficients otherwise)
+// and measurements y, the confidences and the lower-bound flags
+// (kObservationLowerBound) per row and channel.
+struct PhotoSystem {
+  std::array<RowMatrix, 3> a;
+  std::array<Eigen::VectorXf, 3> y;
+  Eigen::VectorXd alpha;
+  std::vector<char> lower;
+};
+
+PhotoSystem AssemblePhotoSystem(const TransportStore& transport, const ObservationSet& observations,
+                                const std::vector<uint32_t>& obs, const ReflectanceState& reflectance, bool haar,
+                                int n_full, int n, int dim) {
+  const int block = haar ? n_full / n : 1;
+  const float coarse_scale = static_cast<float>(block);  // Haar coefficient ratio between the two grids
+  const int num_lobes = reflectance.num_lobes();
+  const Eigen::Index rows = static_cast<Eigen::Index>(obs.size());
+  PhotoSystem sys;
+  sys.alpha.resize(rows);
+  sys.lower.assign(rows * 3, 0);
+  for (int c = 0; c < 3; ++c) {
+    sys.a[c] = RowMatrix::Zero(rows, dim);
+    sys.y[c].resize(rows);
+  }
+  std::vector<float> rho(num_lobes * 3);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const size_t o = obs[r];
+    const Observation& ob = observations.records[o];
+    reflectance.VertexLobeWeights(ob.vertex, rho.data());
+    sys.alpha[r] = ob.confidence;
+    for (int c = 0; c < 3; ++c) sys.lower[r * 3 + c] = ob.lower_bound(c);
+    for (int c = 0; c < 3; ++c) sys.y[c][r] = ob.rgb[c];
+    for (int b = 0; b < num_lobes; ++b) {
+      const TransportStore::Row row = transport.Get(o, ob.vertex, b);
+      for (int c = 0; c < 3; ++c) {
+        const float s = rho[b * 3 + c];
+        if (s == 0.0f) continue;
+        float* dst = sys.a[c].row(r).data();
+        if (block == 1) {
+          for (uint32_t k = 0; k < row.size; ++k) dst[row.index[k]] += s * row.value[k];
+        } else {
+          for (uint32_t k = 0; k < row.size; ++k) {
+            const int rr = row.index[k] / n_full, cc = row.index[k] % n_full;
+            if (rr < n && cc < n) dst[rr * n + cc] += s * coarse_scale * row.value[k];
+          }
+        }
+      }
+    }
+    if (haar) {
+      for (int c = 0; c < 3; ++c) HaarInverse(sys.a[c].row(r).data(), n, sys.a[c].row(r).data());
+    }
+  }
+  return sys;
+}
+
+// The smoothness prior per unit weight: the octahedral Laplacian's Gram (Haar)
+// or the diagonal (l(l+1))² over SH bands.
+Eigen::MatrixXd SmoothnessRegularizer(const LightingState& lighting, int n) {
+  if (lighting.basis == "haar") return OctahedralLaplacianGram(n);
+  Eigen::MatrixXd regularizer = Eigen::MatrixXd::Zero(lighting.dim, lighting.dim);
+  for (int l = 0; l <= lighting.sh_order; ++l)
+    for (int m = -l; m <= l; ++m) regularizer(ShIndex(l, m), ShIndex(l, m)) = double(l * (l + 1)) * (l * (l + 1));
+  return regularizer;
+}
+
 }  // namespace
 
 LightingStepResult SolveLighting(const TransportStore& transport, const ObservationSet& observations,
@@ -151,21 +220,14 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
   const int n = haar && solve_resolution > 0 ? std::min(solve_resolution, n_full) : n_full;
   const int block = n_full / n;                       // fine texels per coarse texel side
   const int dim = haar ? n * n : lighting->dim;
-  const float coarse_scale = static_cast<float>(block);  // Haar coefficient ratio between the two grids
   const int num_photos = static_cast<int>(subset.size());
-  const int num_lobes = reflectance.num_lobes();
   LightingStepResult result;
   result.photo_rmse.assign(num_photos, 0.0);
   result.qp_iterations.assign(num_photos, 0);
 
-  Eigen::MatrixXd regularizer;  // per unit weight
+  const Eigen::MatrixXd regularizer = SmoothnessRegularizer(*lighting, n);  // per unit weight
   Eigen::MatrixXd sh_constraint;
-  if (haar) {
-    regularizer = OctahedralLaplacianGram(n);
-  } else {
-    regularizer = Eigen::MatrixXd::Zero(dim, dim);
-    for (int l = 0; l <= lighting->sh_order; ++l)
-      for (int m = -l; m <= l; ++m) regularizer(ShIndex(l, m), ShIndex(l, m)) = double(l * (l + 1)) * (l * (l + 1));
+  if (!haar) {
     const int nc = 32;
     sh_constraint.resize(nc * nc, dim);
     for (int k = 0; k < nc * nc; ++k) {
@@ -178,43 +240,11 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
     const std::vector<uint32_t>& obs = subset[i];
     const Eigen::Index rows = static_cast<Eigen::Index>(obs.size());
     if (rows == 0) return;
-    using RowMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-    std::array<RowMatrix, 3> a;
-    std::array<Eigen::VectorXf, 3> y;
-    Eigen::VectorXd alpha(rows);
-    std::vector<char> lower(rows * 3, 0);  // lower-bound channels (kObservationLowerBound)
-    for (int c = 0; c < 3; ++c) {
-      a[c] = RowMatrix::Zero(rows, dim);
-      y[c].resize(rows);
-    }
-    std::vector<float> rho(num_lobes * 3);
-    for (Eigen::Index r = 0; r < rows; ++r) {
-      const size_t o = obs[r];
-      const Observation& ob = observations.records[o];
-      reflectance.VertexLobeWeights(ob.vertex, rho.data());
-      alpha[r] = ob.confidence;
-      for (int c = 0; c < 3; ++c) lower[r * 3 + c] = ob.lower_bound(c);
-      for (int c = 0; c < 3; ++c) y[c][r] = ob.rgb[c];
-      for (int b = 0; b < num_lobes; ++b) {
-        const TransportStore::Row row = transport.Get(o, ob.vertex, b);
-        for (int c = 0; c < 3; ++c) {
-          const float s = rho[b * 3 + c];
-          if (s == 0.0f) continue;
-          float* dst = a[c].row(r).data();
-          if (block == 1) {
-            for (uint32_t k = 0; k < row.size; ++k) dst[row.index[k]] += s * row.value[k];
-          } else {
-            for (uint32_t k = 0; k < row.size; ++k) {
-              const int rr = row.index[k] / n_full, cc = row.index[k] % n_full;
-              if (rr < n && cc < n) dst[rr * n + cc] += s * coarse_scale * row.value[k];
-            }
-          }
-        }
-      }
-      if (haar) {
-        for (int c = 0; c < 3; ++c) HaarInverse(a[c].row(r).data(), n, a[c].row(r).data());
-      }
-    }
+    PhotoSystem sys = AssemblePhotoSystem(transport, observations, obs, reflectance, haar, n_full, n, dim);
+    const std::array<RowMatrix, 3>& a = sys.a;
+    const std::array<Eigen::VectorXf, 3>& y = sys.y;
+    const Eigen::VectorXd& alpha = sys.alpha;
+    const std::vector<char>& lower = sys.lower;
 
     std::vector<double> robust(rows, 1.0);
     std::array<std::vector<Eigen::Index>, 3> exact_rows, bound_rows;  // per channel
@@ -334,6 +364,119 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
   lighting->UpdateCoefficients();
   result.seconds = timer.Seconds();
   return result;
+}
+
+std::vector<MapResolution> LightingResolution(const TransportStore& transport, const ObservationSet& observations,
+                                              const std::vector<std::vector<uint32_t>>& subset,
+                                              const ReflectanceState& reflectance, const InverseOptions& options,
+                                              const LightingState& lighting) {
+  const bool haar = lighting.basis == "haar";
+  const int n = lighting.env_resolution;
+  const int dim = haar ? n * n : lighting.dim;
+  const int num_photos = static_cast<int>(subset.size());
+  const Eigen::MatrixXd regularizer = SmoothnessRegularizer(lighting, n);
+  // Level (Haar) or band (SH) of every coefficient.
+  std::vector<int> level(dim, 0);
+  int levels = 0;
+  if (haar) {
+    levels = 1 + Log2(n);
+    for (int k = 1; k < dim; ++k) level[k] = 1 + DecodeHaarIndex(static_cast<uint32_t>(k), n).level;
+  } else {
+    levels = lighting.sh_order + 1;
+    for (int l = 0; l <= lighting.sh_order; ++l)
+      for (int m = -l; m <= l; ++m) level[ShIndex(l, m)] = l;
+  }
+  std::vector<MapResolution> out(num_photos);
+  tbb::parallel_for(0, num_photos, [&](int i) {
+    MapResolution& res = out[i];
+    res.dof_per_level.assign(levels, 0.0);
+    res.coefficients_per_level.assign(levels, 0);
+    for (int k = 0; k < dim; ++k) ++res.coefficients_per_level[level[k]];
+    const std::vector<uint32_t>& obs = subset[i];
+    if (obs.empty()) return;
+    const PhotoSystem sys = AssemblePhotoSystem(transport, observations, obs, reflectance, haar, n, n, dim);
+    const Eigen::Index rows = static_cast<Eigen::Index>(obs.size());
+    std::array<Eigen::VectorXd, 3> x;
+    for (int c = 0; c < 3; ++c)
+      x[c] = Eigen::Map<const Eigen::VectorXf>(lighting.values[i][c].data(), dim).cast<double>();
+    // The robust weights of the final residuals, as the step's last reweighting computes them.
+    std::vector<double> residual(rows, 0.0);
+    std::array<Eigen::VectorXf, 3> pred;
+    for (int c = 0; c < 3; ++c) {
+      pred[c] = sys.a[c] * x[c].cast<float>();
+      for (Eigen::Index r = 0; r < rows; ++r) {
+        double e = double(sys.y[c][r]) - pred[c][r];
+        if (sys.lower[r * 3 + c] && e < 0) e = 0;
+        residual[r] += e * e;
+      }
+    }
+    for (double& r : residual) r = std::sqrt(r);
+    const std::vector<double> robust = options.irls_iterations > 1
+                                           ? RobustWeights(residual, options.robust_loss, options.robust_scale)
+                                           : std::vector<double>(rows, 1.0);
+    Eigen::MatrixXd sparsity_penalty;
+    if (haar && options.wavelet_sparsity > 0) {
+      sparsity_penalty = HaarL1Penalty({lighting.values[i][0].data(), lighting.values[i][1].data(),
+                                        lighting.values[i][2].data()},
+                                       n, options.wavelet_sparsity_floor);
+    }
+    for (int c = 0; c < 3; ++c) {
+      // Rows that measure: the exact ones. A lower bound only says "at least" (the light in a clipped
+      // highlight may be far brighter), so it determines nothing, even where the map meets it.
+      std::vector<Eigen::Index> active;
+      Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(dim);
+      for (Eigen::Index r = 0; r < rows; ++r) {
+        const double w = sys.alpha[r] * robust[r];
+        diagonal += w * sys.a[c].row(r).cast<double>().cwiseAbs2().transpose();  // λ as the step sets it
+        if (!sys.lower[r * 3 + c]) active.push_back(r);
+      }
+      RowMatrix aw(static_cast<Eigen::Index>(active.size()), dim);
+      for (size_t k = 0; k < active.size(); ++k)
+        aw.row(static_cast<Eigen::Index>(k)) =
+            static_cast<float>(std::sqrt(sys.alpha[active[k]] * robust[active[k]])) * sys.a[c].row(active[k]);
+      Eigen::MatrixXf hf = Eigen::MatrixXf::Zero(dim, dim);
+      hf.selfadjointView<Eigen::Lower>().rankUpdate(aw.transpose());
+      const Eigen::MatrixXd h = Eigen::MatrixXd(hf.cast<double>().selfadjointView<Eigen::Lower>());
+      // The priors exactly as the lighting step weights them.
+      const double diagonal_max = std::max(1e-30, diagonal.maxCoeff());
+      Eigen::MatrixXd q = h + (options.smoothness * diagonal_max) * regularizer;
+      if (sparsity_penalty.size() > 0) q += (options.wavelet_sparsity * diagonal_max) * sparsity_penalty;
+      q.diagonal().array() += 1e-9 * diagonal_max;
+      Eigen::MatrixXd r = Eigen::LLT<Eigen::MatrixXd>(q).solve(h);  // R = (H + P)⁻¹ H
+      if (haar) {
+        // R in the Haar basis: W R Wᵀ (W orthonormal), columns then rows.
+        std::vector<double> buffer(dim);
+        for (int j = 0; j < dim; ++j) {
+          HaarForward(r.col(j).data(), n, buffer.data());
+          r.col(j) = Eigen::Map<const Eigen::VectorXd>(buffer.data(), dim);
+        }
+        Eigen::MatrixXd rt = r.transpose();
+        for (int j = 0; j < dim; ++j) {
+          HaarForward(rt.col(j).data(), n, buffer.data());
+          rt.col(j) = Eigen::Map<const Eigen::VectorXd>(buffer.data(), dim);
+        }
+        r = rt.transpose();
+      }
+      for (int k = 0; k < dim; ++k) {
+        res.dof_per_level[level[k]] += r(k, k) / 3.0;
+        res.dof += r(k, k) / 3.0;
+      }
+    }
+  });
+  return out;
+}
+
+double ResolvedDetailDegrees(const MapResolution& m, const std::string& basis) {
+  if (basis != "haar") return 0;
+  // Entry 1 + l of dof_per_level is wavelet level l: squares of 2^-l of the map's side, whose
+  // wavelets tell apart their halves, about sqrt(4π) / 2^(l+1) radians across (the octahedral
+  // map's mean texel is sqrt(4π) / n).
+  double detail = 0;
+  for (size_t e = 1; e < m.dof_per_level.size(); ++e) {
+    if (m.coefficients_per_level[e] == 0 || m.dof_per_level[e] < 0.5 * m.coefficients_per_level[e]) break;
+    detail = std::sqrt(4 * M_PI) / std::pow(2.0, double(e)) * 180 / M_PI;
+  }
+  return detail;
 }
 
 }  // namespace relight

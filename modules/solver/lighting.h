@@ -36,6 +36,40 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
                                  const std::vector<std::vector<uint32_t>>& subset, const ReflectanceState& reflectance,
                                  const InverseOptions& options, LightingState* lighting, int solve_resolution = 0);
 
+// What the photos determine of each recovered map: the resolution matrix of
+// the lighting step's estimate (Backus-Gilbert; "model resolution" in
+// geophysical inversion). With H = Σ α r a aᵀ the data term of a photo's rows
+// under the final reflectance (confidences α, the step's robust weights r; a
+// lower bound, a clipped highlight, only says "at least" and does not count)
+// and P the priors at the final map (the Laplacian, the wavelet sparsity's
+// reweighted quadratic, the ridge), the linearised estimate responds to the
+// data through
+// R = (H + P)⁻¹ H. trace(R) is the number of degrees of freedom the photos fix:
+// how many of the map's coefficients they support, out of n² (Haar) or
+// (order + 1)² (SH); the rest comes from the priors. The diagonal of R in the
+// Haar basis (SH: per coefficient) says which: summed per level, it tells how
+// fine a detail the photos resolve. The non-negativity constraints are left
+// out (the estimate is linearised as if no texel were at zero). Per photo, the
+// mean over the three channels.
+struct MapResolution {
+  double dof = 0;                     // trace(R)
+  // Haar: [scaling, level 0, level 1, ...] (level l: 3·4^l wavelets of squares of side n / 2^l
+  // texels, wavelet/haar.h); SH: per band l = 0 .. order. Sums of R's diagonal in that basis.
+  std::vector<double> dof_per_level;
+  std::vector<int> coefficients_per_level;  // how many coefficients each entry sums over
+};
+std::vector<MapResolution> LightingResolution(const TransportStore& transport, const ObservationSet& observations,
+                                              const std::vector<std::vector<uint32_t>>& subset,
+                                              const ReflectanceState& reflectance, const InverseOptions& options,
+                                              const LightingState& lighting);
+
+// The finest detail a Haar map resolves, in degrees: the detail of the finest
+// wavelet level down to which at least half of every level's coefficients are
+// determined (a level-l wavelet tells apart the halves of a square 2^-l of the
+// map's side, about sqrt(4π) / 2^(l+1) radians). 0 when not even the coarsest
+// level is (only the mean), and for SH.
+double ResolvedDetailDegrees(const MapResolution& m, const std::string& basis);
+
 // Dense Δ^T Δ of the graph Laplacian of an n×n octahedral grid (4-neighbours across the folds).
 Eigen::MatrixXd OctahedralLaplacianGram(int n);
 

@@ -9,6 +9,7 @@
 #include <benchmark/benchmark.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -81,6 +82,12 @@ void BM_SolveMinerva(benchmark::State& state) {
   state.counters["coeffs/row"] = r.summary.transport_mean_coefficients_per_row;
   state.counters["holdout_rel"] = best.holdout_rmse / mean_y;
   state.counters["env_rel_err"] = LightingRelativeError(p, r.lighting);
+  // What the photos determine of the maps (inverse.map_resolution, in total_s): median over photos.
+  std::vector<double> dof;
+  for (const MapResolution& m : r.summary.map_resolution) dof.push_back(m.dof);
+  std::sort(dof.begin(), dof.end());
+  state.counters["resolution_s"] = r.summary.map_resolution_seconds;
+  state.counters["determined"] = dof.empty() ? 0.0 : dof[dof.size() / 2];
 }
 // The lighting step's bounded least squares: our projected Newton against
 // Ceres (bounded trust region) on the same 5K-vertex problem, same run; 4

@@ -619,6 +619,72 @@ TEST_F(SolverTest, LightingDetailGrowsWithTheBrdfsBandwidth) {
   EXPECT_LT(haar[2] / sh[2], haar[0] / sh[0]) << "Haar's margin over SH grows with the bandwidth";
 }
 
+// LightingResolution: how many of a map's coefficients the photos determine. Limits: with
+// vanishing priors, narrow lobes fix (nearly) every coefficient and nine SH coefficients are all
+// fixed; the mean is always fixed; the count grows with the lobe's bandwidth and falls as the
+// smoothness prior grows; the levels add up to the total.
+TEST_F(SolverTest, LightingResolutionCountsWhatThePhotosDetermine) {
+  struct Case {
+    std::string name;
+    std::vector<std::string> basis;
+    std::vector<double> coefficients;
+  };
+  const std::vector<Case> cases = {{"diffuse", {"lambertian"}, {0.7, 0.7, 0.7}},
+                                   {"glossy", {"lambertian", "phong:50"}, {0.2, 0.2, 0.2, 0.5, 0.5, 0.5}},
+                                   {"specular", {"lambertian", "phong:500"}, {0.2, 0.2, 0.2, 0.5, 0.5, 0.5}}};
+  std::vector<double> dof;
+  for (const Case& c : cases) {
+    SyntheticProblemOptions po;
+    po.basis = c.basis;
+    po.env_resolution = kEnv;
+    po.materials = 1;
+    po.coefficients = {c.coefficients};
+    const Scene s = MakeSyntheticProblem(po);
+    InverseOptions o = BaseOptions(c.basis);
+    o.fixed_reflectance = true;
+    o.holdout_fraction = 0;
+    o.smoothness = 1e-4;
+    o.wavelet_sparsity = InverseOptions().wavelet_sparsity;
+    o.irls_iterations = 2;
+    const InverseResult r = SolveInverse(s.problem, o, &s.truth);
+    ASSERT_EQ(r.summary.map_resolution.size(), s.problem.photos.size());
+    const MapResolution& m = r.summary.map_resolution[0];
+    double sum = 0;
+    for (double d : m.dof_per_level) sum += d;
+    EXPECT_NEAR(sum, m.dof, 1e-9 * m.dof) << c.name;
+    EXPECT_NEAR(m.dof_per_level[0], 1.0, 0.02) << c.name << ": the mean is always determined";
+    EXPECT_EQ(m.coefficients_per_level.back(), 3 * (kEnv / 2) * (kEnv / 2)) << "finest Haar level";
+    EXPECT_GT(m.dof, 0.0);
+    EXPECT_LT(m.dof, kEnv * kEnv);
+    dof.push_back(m.dof);
+    if (getenv("SOLVER_TEST_VERBOSE")) {
+      std::cerr << c.name << ": dof " << m.dof << " per level";
+      for (double d : m.dof_per_level) std::cerr << " " << d;
+      std::cerr << "\n";
+    }
+    if (c.name == "specular") {
+      // Vanishing priors: much more is the data's; a stronger Laplacian: less.
+      o.smoothness = 1e-8;
+      o.wavelet_sparsity = 0;
+      const double free_dof = SolveInverse(s.problem, o, &s.truth).summary.map_resolution[0].dof;
+      EXPECT_GT(free_dof, 1.5 * m.dof) << "vanishing priors leave far more to the data";
+      o.smoothness = 1e-2;
+      EXPECT_LT(SolveInverse(s.problem, o, &s.truth).summary.map_resolution[0].dof, m.dof);
+    }
+    if (c.name == "glossy") {
+      o.lighting_basis = "sh";
+      o.sh_order = 2;
+      o.smoothness = 1e-8;
+      const MapResolution sh = SolveInverse(s.problem, o, &s.truth).summary.map_resolution[0];
+      EXPECT_NEAR(sh.dof, 9.0, 0.05) << "nine SH coefficients, all determined";
+      EXPECT_EQ(sh.dof_per_level.size(), 3u);
+      EXPECT_EQ(sh.coefficients_per_level[2], 5);
+    }
+  }
+  EXPECT_LT(dof[0], dof[1]);
+  EXPECT_LT(dof[1], dof[2]);
+}
+
 TEST_F(SolverTest, HaarBeatsSecondOrderShOnASunnyGlossyScene) {
   const std::vector<std::string> basis = {"lambertian", "phong:50"};
   const Scene s = MakeScene(basis, true);
