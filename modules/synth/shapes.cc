@@ -197,6 +197,45 @@ TriangleMesh MakeGroundPlane(double size, int cells) {
   return mesh;
 }
 
+TriangleMesh MakeGroundDisk(double size, int rings) {
+  RELIGHT_CHECK_GT(rings, 0);
+  TriangleMesh mesh;
+  const double radius = size / 2;
+  // Ring k: 6k vertices, the j-th at angle 2π j / 6k (so that each of the six sectors holds k edges).
+  auto first = [](int k) { return k == 0 ? 0 : 1 + 3 * k * (k - 1); };  // index of ring k's first vertex
+  mesh.vertices.emplace_back(0.0f, 0.0f, 0.0f);
+  for (int k = 1; k <= rings; ++k) {
+    const double r = radius * k / rings;
+    for (int j = 0; j < 6 * k; ++j) {
+      const double a = 2 * M_PI * j / (6.0 * k);
+      mesh.vertices.emplace_back(float(r * std::cos(a)), float(r * std::sin(a)), 0.0f);
+    }
+  }
+  mesh.normals.assign(mesh.vertices.size(), Eigen::Vector3f(0, 0, 1));
+  // Between ring k-1 (inner, 6(k-1) vertices) and ring k (outer, 6k): in each sector s the outer ring
+  // has k edges and the inner ring k-1; walk both, always advancing the side whose next vertex lies at
+  // the smaller angle (counter-clockwise faces, normal +Z).
+  for (int k = 1; k <= rings; ++k) {
+    const int n_in = 6 * (k - 1), n_out = 6 * k;
+    int i = 0, o = 0;  // steps taken on the inner and outer ring
+    while (i < n_in || o < n_out) {
+      const int a_in = k == 1 ? 0 : first(k - 1) + i % n_in;
+      const int a_out = first(k) + o % n_out;
+      // Angles of the next vertices (fractions of the full turn).
+      const double next_in = n_in == 0 ? 2.0 : double(i + 1) / n_in;
+      const double next_out = double(o + 1) / n_out;
+      if (o < n_out && (i >= n_in || next_out <= next_in)) {
+        mesh.faces.emplace_back(a_in, a_out, first(k) + (o + 1) % n_out);
+        ++o;
+      } else {
+        mesh.faces.emplace_back(a_in, a_out, first(k - 1) + (i + 1) % n_in);
+        ++i;
+      }
+    }
+  }
+  return mesh;
+}
+
 TriangleMesh MakeBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, int cells) {
   RELIGHT_CHECK_GT(cells, 0);
   TriangleMesh mesh;

@@ -38,6 +38,10 @@ bool SimplifyToVertices(TriangleMesh* mesh, int max_vertices, const std::string&
 
 // Square ground plane z = 0 of side `size` centred at the origin, `cells` x `cells` quads, normal +Z.
 TriangleMesh MakeGroundPlane(double size, int cells);
+// Round ground z = 0 of diameter `size` centred at the origin, normal +Z: `rings` concentric rings of
+// vertices (ring k holds 6k, a hexagonal tiling of near-equilateral triangles whose edges are about
+// size / (2 rings)), the outermost on the circle.
+TriangleMesh MakeGroundDisk(double size, int rings);
 // Closed axis-aligned box [min, max] with flat faces (vertices not shared between faces),
 // each face split into `cells` x `cells` quads.
 TriangleMesh MakeBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, int cells);

@@ -123,6 +123,41 @@ TEST(ShapesTest, BoxAndGroundHaveExactAreasAndVolumes) {
   for (size_t i = 0; i < ground.num_faces(); ++i) EXPECT_GT(ground.FaceNormal(int(i)).z(), 0.999f);
 }
 
+// The disk: a hexagonal tiling of 6 R² triangles over 1 + 3 R (R + 1) vertices whose area is that of the
+// regular 6R-gon inscribed in the circle, every triangle facing +Z and none degenerate, and every edge
+// shared by two triangles except the 6R on the rim (one disk, no holes, no overlaps).
+TEST(ShapesTest, GroundDiskTilesTheCircle) {
+  for (int rings : {1, 2, 7, 40}) {
+    const double size = 6.0, r = size / 2;
+    const TriangleMesh disk = MakeGroundDisk(size, rings);
+    ASSERT_EQ(disk.num_vertices(), size_t(1 + 3 * rings * (rings + 1))) << rings;
+    ASSERT_EQ(disk.num_faces(), size_t(6 * rings * rings)) << rings;
+    const int n = 6 * rings;
+    EXPECT_NEAR(disk.SurfaceArea(), 0.5 * n * r * r * std::sin(2 * M_PI / n), 1e-4 * r * r) << rings;
+    const double edge = r / rings;
+    std::map<std::pair<int, int>, int> edges;
+    for (size_t f = 0; f < disk.num_faces(); ++f) {
+      EXPECT_GT(disk.FaceNormal(int(f)).z(), 0.999f) << rings << " face " << f;
+      EXPECT_GT(disk.FaceArea(int(f)), 0.2 * edge * edge) << rings << " face " << f;
+      const Eigen::Vector3i& t = disk.faces[f];
+      for (int e = 0; e < 3; ++e) {
+        const int a = t[e], b = t[(e + 1) % 3];
+        ++edges[{std::min(a, b), std::max(a, b)}];
+      }
+    }
+    int rim = 0;
+    for (const auto& [e, count] : edges) {
+      ASSERT_LE(count, 2) << rings;
+      if (count == 1) {
+        ++rim;
+        EXPECT_NEAR(disk.vertices[e.first].head<2>().norm(), r, 1e-5) << rings;
+        EXPECT_NEAR(disk.vertices[e.second].head<2>().norm(), r, 1e-5) << rings;
+      }
+    }
+    EXPECT_EQ(rim, n) << rings;
+  }
+}
+
 TEST(ShapesTest, NormalizeRotateAndSubdivide) {
   TriangleMesh box = MakeBox({0, 0, 0}, {1, 4, 2}, 1);  // tallest along +y
   RotateUp(&box, "+y", 0);

@@ -137,7 +137,8 @@ SyntheticScene BuildSyntheticScene(const SynthesizeOptions& o) {
   OrderProperties(&object);
 
   if (o.ground) {
-    s.occluders = MakeGroundPlane(o.ground_size * o.object_size, o.ground_cells);
+    s.occluders = o.ground_shape == "disk" ? MakeGroundDisk(o.ground_size * o.object_size, std::max(1, o.ground_cells / 2))
+                                           : MakeGroundPlane(o.ground_size * o.object_size, o.ground_cells);
     Pcg32 rng(uint64_t(o.seed), kStreamBlockers);
     const double phase = rng.Uniform(0, 2 * M_PI);
     double radius_xy = 0;
@@ -160,7 +161,7 @@ SyntheticScene BuildSyntheticScene(const SynthesizeOptions& o) {
                            << " basis BRDFs and at least one material";
     }
     WeightPattern ground_pattern = pattern;
-    ground_pattern.kind = o.ground_pattern;
+    ground_pattern.kind = o.ground_pattern == "plain" ? "single" : o.ground_pattern;
     ground_pattern.frequency = o.ground_pattern_frequency / o.object_size;
     ground_pattern.seed = MixSeed(uint64_t(o.seed), kStreamGroundPattern);
     AssignMaterialWeights(s.occluder_reflectance, ground_pattern, &s.occluders);

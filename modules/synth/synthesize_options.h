@@ -35,10 +35,11 @@ struct SynthesizeOptions {
   double pattern_sharpness = 40.0;  // Softmax gain of the weights: larger gives crisper material borders.
   // Ground and blockers.
   bool ground = true;                     // Add the textured ground plane z = 0.
-  double ground_size = 6.0;               // Side of the square ground plane [object sizes].
+  std::string ground_shape = "square";    // square (side ground_size) or disk (diameter ground_size).
+  double ground_size = 6.0;               // Side (square) or diameter (disk) of the ground [object sizes].
   int ground_cells = 256;                 // Grid cells per side of the ground (its texture lives on vertices).
   double ground_pattern_frequency = 3.0;  // Ground pattern cycles per object size.
-  std::string ground_pattern = "mosaic";  // Ground texture: mosaic (distinct colours, SfM-friendly) or noise (stone).
+  std::string ground_pattern = "mosaic";  // Ground texture: mosaic (distinct colours), noise (stone), plain.
   std::string ground_materials;           // materials.json of the ground and blockers; empty: built-in stone and sand.
   int num_blockers = 0;                   // Boxes standing beside the object that cast shadows on it.
   double blocker_height = 1.0;            // Height of a blocker [object sizes].
@@ -128,14 +129,20 @@ struct SynthesizeOptions {
     t->Add("pattern_sharpness", &pattern_sharpness, "Softmax gain of the weights (crisper borders when larger).")
         .Min(0);
     t->Add("ground", &ground, "Add the textured ground plane z = 0 (casts and receives shadows).");
-    t->Add("ground_size", &ground_size, "Side of the square ground plane [object sizes].").Min(1);
-    t->Add("ground_cells", &ground_cells, "Grid cells per side of the ground (texture lives on vertices).")
+    t->Add("ground_shape", &ground_shape,
+           "square: a square of side ground_size; disk: a round ground of diameter ground_size (no corners "
+           "in view).")
+        .Choices({"square", "disk"});
+    t->Add("ground_size", &ground_size, "Side (square) or diameter (disk) of the ground [object sizes].").Min(1);
+    t->Add("ground_cells", &ground_cells,
+           "Grid cells per side of the ground (disk: ground_cells / 2 rings); its texture lives on vertices.")
         .Range(1, 4096);
     t->Add("ground_pattern_frequency", &ground_pattern_frequency, "Ground pattern cycles per object size.").Min(1e-3);
     t->Add("ground_pattern", &ground_pattern,
            "Ground texture: mosaic (a random colour per cell with fractal detail, over three primary materials: "
-           "distinctive features for structure from motion) or noise (the stone materials' fractal pattern).")
-        .Choices({"mosaic", "noise"});
+           "distinctive features for structure from motion), noise (the stone materials' fractal pattern) or plain "
+           "(the first ground material everywhere: no features but the shadows).")
+        .Choices({"mosaic", "noise", "plain"});
     t->Add("ground_materials", &ground_materials,
            "materials.json of the ground and blockers; empty: built-in pale stone, dark stone, sand (Lambertian).")
         .InputFile();
