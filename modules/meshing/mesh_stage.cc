@@ -20,6 +20,8 @@
 #include "geometry/mesh_io.h"
 #include "geometry/point_grid.h"
 #include "geometry/raycaster.h"
+#include "image/image.h"
+#include "meshing/geometry_views.h"
 
 namespace relight {
 namespace fs = std::filesystem;
@@ -257,6 +259,44 @@ bool OrientOutward(const Reconstruction* cameras, TriangleMesh* mesh, std::strin
   return true;
 }
 
+namespace {
+
+// views/: the mesh (and the fused MVS points) seen from a few of the photos' cameras, and views.json
+// listing them (geometry_views.h).
+void WriteGeometryViews(const Reconstruction& cameras, const TriangleMesh& mesh, const std::string& mvs_dir,
+                        const std::string& output_dir) {
+  const std::string dir = JoinPath(output_dir, "views");
+  std::error_code ec;
+  fs::remove_all(dir, ec);
+  EnsureDir(dir);
+  const std::string fused_path = mvs_dir.empty() ? "" : JoinPath(mvs_dir, "fused.ply");
+  TriangleMesh fused;
+  if (!fused_path.empty() && fs::is_regular_file(fused_path)) fused = ReadMesh(fused_path);
+  const int kViews = 4, kMaxSize = 400;
+  WriteOptions png;
+  png.type = PixelType::kUint8;
+  OrderedJson views = OrderedJson::array();
+  for (const ImageRecord* image : SpreadViews(cameras, kViews)) {
+    const Camera& camera = cameras.cameras.at(image->camera_id);
+    const std::string stem = fs::path(image->name).stem().string();
+    OrderedJson v;
+    v["photo"] = image->name;
+    WriteImage(JoinPath(dir, stem + "_mesh.png"), RenderMeshView(mesh, camera, *image, kMaxSize), png);
+    v["mesh"] = "views/" + stem + "_mesh.png";
+    if (!fused.vertices.empty()) {
+      WriteImage(JoinPath(dir, stem + "_points.png"), RenderPointsView(fused, camera, *image, kMaxSize), png);
+      v["points"] = "views/" + stem + "_points.png";
+    }
+    views.push_back(v);
+  }
+  OrderedJson j;
+  j["views"] = views;
+  j["fused_points"] = fused.vertices.size();
+  WriteJsonAtomic(JoinPath(output_dir, "views.json"), j);
+}
+
+}  // namespace
+
 MeshSummary RunMesh(const MeshOptions& options, const MeshInputs& inputs, const std::string& output_dir) {
   Timer timer;
   MeshSummary summary;
@@ -402,6 +442,7 @@ MeshSummary RunMesh(const MeshOptions& options, const MeshInputs& inputs, const 
   std::error_code ec;
   fs::remove(JoinPath(output_dir, "occluders.ply"), ec);
   if (!occluders.empty()) WriteMeshPly(JoinPath(output_dir, "occluders.ply"), occluders);
+  if (cameras != nullptr) WriteGeometryViews(*cameras, mesh, inputs.mvs_dir, output_dir);
   summary.seconds = timer.Seconds();
   WriteSummary(summary, options, JoinPath(output_dir, "mesh_summary.json"));
   RLOG_INFO("{}", summary.BriefReport());

@@ -10,6 +10,8 @@
 #include "core/error.h"
 #include "core/json.h"
 #include "geometry/mesh_io.h"
+#include "geometry/primitives.h"
+#include "meshing/geometry_views.h"
 #include "meshing/mesh_cleanup.h"
 #include "meshing/mesh_stage.h"
 #include "testing/testing.h"
@@ -453,6 +455,67 @@ TEST(MeshStage, ClearErrors) {
   } catch (const UserError& e) {
     EXPECT_NE(std::string(e.what()).find("ground_truth/mesh.ply"), std::string::npos) << e.what();
   }
+}
+
+
+// The geometry views: a unit sphere 5 units in front of a 200 x 200 pinhole camera (f = 200 px) projects to a
+// disc of radius f R / sqrt(d^2 - R^2) = 40.82 px; the clay render covers that disc and nothing else, and dots
+// of points on the sphere stay inside it.
+TEST(GeometryViews, SphereProjectsToItsClosedFormDisc) {
+  TriangleMesh sphere = MakeIcosphere(5);
+  for (auto& v : sphere.vertices) v += Eigen::Vector3f(0, 0, 5);  // camera at the origin looking along +z
+  sphere.ComputeVertexNormals();
+  const Camera camera = Camera::Pinhole(1, 200, 200, 200, 200, 100, 100);
+  ImageRecord image;
+  image.camera_id = 1;
+  image.name = "view.png";
+  const double radius_px = 200 / std::sqrt(24.0);
+  const Image clay = RenderMeshView(sphere, camera, image, 400);
+  ASSERT_EQ(clay.width, 200);
+  double covered = 0;  // fraction of each pixel that is not white background
+  int outside = 0;
+  for (int y = 0; y < 200; ++y) {
+    for (int x = 0; x < 200; ++x) {
+      const double not_white = 1.0 - clay.at(x, y, 2);  // the clay's blue is at most 0.74: background is 1
+      const double r = std::hypot(x + 0.5 - 100, y + 0.5 - 100);
+      if (not_white > 1e-6) {
+        covered += 1;
+        if (r > radius_px + 1.5) ++outside;
+      }
+    }
+  }
+  EXPECT_EQ(outside, 0);
+  // Pixels touched by the disc: its area plus about half its perimeter in partly covered edge pixels.
+  EXPECT_NEAR(covered, M_PI * radius_px * radius_px + M_PI * radius_px, 0.03 * M_PI * radius_px * radius_px);
+  // Scaled down to 100 px: half the size.
+  EXPECT_EQ(RenderMeshView(sphere, camera, image, 100).width, 100);
+
+  // The vertices as dots: inside the disc, and dense enough to cover most of it.
+  const Image dots = RenderPointsView(sphere, camera, image, 200);
+  int dots_inside = 0, dots_outside = 0;
+  for (int y = 0; y < 200; ++y) {
+    for (int x = 0; x < 200; ++x) {
+      if (dots.at(x, y, 0) < 1.0f) {
+        (std::hypot(x + 0.5 - 100, y + 0.5 - 100) <= radius_px + 1.5 ? dots_inside : dots_outside) += 1;
+      }
+    }
+  }
+  EXPECT_EQ(dots_outside, 0);
+  EXPECT_GT(dots_inside, 0.8 * M_PI * radius_px * radius_px);
+}
+
+TEST(GeometryViews, SpreadViewsPicksEvenlyInNameOrder) {
+  Reconstruction model;
+  for (int i = 0; i < 10; ++i) {
+    ImageRecord im;
+    im.image_id = 10 - i;  // ids in reverse name order
+    im.name = "p" + std::to_string(i) + ".jpg";
+    model.images[im.image_id] = im;
+  }
+  std::vector<std::string> names;
+  for (const ImageRecord* im : SpreadViews(model, 4)) names.push_back(im->name);
+  EXPECT_EQ(names, std::vector<std::string>({"p1.jpg", "p3.jpg", "p6.jpg", "p8.jpg"}));
+  EXPECT_EQ(SpreadViews(model, 20).size(), 10u);
 }
 
 }  // namespace

@@ -247,6 +247,7 @@ class ReportBuilder {
 
   void Sections(std::ostringstream& s) {
     MetricsSection(s);
+    GeometrySection(s);
     PhotosSection(s);
     EnvMapsSection(s);
     MaterialsSection(s);
@@ -315,6 +316,72 @@ class ReportBuilder {
       s << "<p class=\"def\">Model frame against the ground truth: "
         << html::Escape(metrics_["frame"].value("method", "none")) << ".</p>\n";
     }
+  }
+
+  // Structure from motion (which photos registered, how sure) and the geometry seen from the photos' cameras.
+  void GeometrySection(std::ostringstream& s) {
+    const std::string sfm = Input("sfm"), mesh = Input("mesh"), ingest = Input("ingest");
+    if (sfm.empty() && mesh.empty()) return;
+    Section(s, "geometry", "Cameras and geometry");
+    if (!sfm.empty() && IsFile(JoinPath(sfm, "sfm_summary.json"))) {
+      const Json j = ReadJsonFile(JoinPath(sfm, "sfm_summary.json"));
+      const std::string consensus = j.value("consensus", "");
+      const std::map<std::string, std::string> meaning = {
+          {"agreed", "two mapper runs from different first pairs placed the cameras the same way"},
+          {"consistent", "the photo pairs' own matches agree with the cameras; no other consistent run disagrees"},
+          {"unchecked", "only one mapper run built a model and too few photo pairs to check it"},
+          {"disagreed", "mapper runs from different first pairs disagree: the cameras may be wrong"},
+          {"inconsistent", "the model contradicts many of its own photo pairs: the cameras may be wrong"}};
+      s << "<p>" << j.value("num_registered", 0) << " of " << j.value("num_photos", 0) << " photos registered ("
+        << html::Escape(j.value("mode", "")) << " mode";
+      if (meaning.count(consensus)) s << "; " << html::Escape(meaning.at(consensus));
+      s << ").</p>\n";
+      if (j.contains("mapper_runs") && !j["mapper_runs"].empty()) {
+        std::vector<std::vector<std::string>> rows;
+        for (const Json& r : j["mapper_runs"]) {
+          rows.push_back({html::Escape(r.value("first_pair", "")), std::to_string(r.value("num_registered", 0)),
+                          std::to_string(r.value("photo_pairs_agreeing", 0)) + " of " +
+                              std::to_string(r.value("photo_pairs_checked", 0)),
+                          r.value("kept", false) ? "kept" : ""});
+        }
+        s << html::Table({"mapper run: first pair", "photos", "photo pairs that agree", ""}, rows);
+      }
+      std::vector<std::vector<std::string>> dropped;
+      for (const Json& p : j.value("photos", Json::array())) {
+        if (!p.value("registered", false)) {
+          dropped.push_back({html::Escape(p.value("name", "")), html::Escape(p.value("reason", ""))});
+        } else if (p.value("unstable", false)) {
+          dropped.push_back({html::Escape(p.value("name", "")),
+                             "registered, but placed differently by an independent run: its camera may be wrong"});
+        }
+      }
+      if (!dropped.empty()) s << html::Table({"photo", "not registered because"}, dropped);
+    }
+    if (mesh.empty() || !IsFile(JoinPath(mesh, "views.json"))) return;
+    s << "<p class=\"def\">The cleaned mesh (grey clay) and the fused multi-view stereo points seen from the "
+         "photos' cameras: where the mesh departs from the photo, the geometry is wrong.</p>\n";
+    std::map<std::string, std::string> photo_files;
+    if (!ingest.empty() && IsFile(JoinPath(ingest, "manifest.json"))) {
+      for (const Json& p : ReadJsonFile(JoinPath(ingest, "manifest.json")).value("photos", Json::array())) {
+        if (!p.value("linear", false)) photo_files[p.value("name", "")] = JoinPath(ingest, p.value("file", ""));
+      }
+    }
+    std::vector<std::vector<std::string>> rows;
+    for (const Json& v : ReadJsonFile(JoinPath(mesh, "views.json")).value("views", Json::array())) {
+      const std::string name = v.value("photo", "");
+      auto fig = [&](const std::string& key, const std::string& what) {
+        if (!v.contains(key)) return std::string("<span class=\"na\">n/a</span>");
+        const std::string rel = v[key].get<std::string>();
+        return Fig(JoinPath(mesh, rel), "geometry/" + fs::path(rel).filename().string(), name + ": " + what);
+      };
+      const std::string photo = photo_files.count(name)
+                                    ? Fig(photo_files[name], "geometry/" + fs::path(name).stem().string() + "_photo" +
+                                                                 fs::path(photo_files[name]).extension().string(),
+                                          name + ": photo")
+                                    : "<span class=\"na\">n/a</span>";
+      rows.push_back({html::Escape(name), photo, fig("points", "fused points"), fig("mesh", "mesh")});
+    }
+    s << html::Table({"photo", "photo", "fused MVS points", "cleaned mesh"}, rows, "images");
   }
 
   void PhotosSection(std::ostringstream& s) {

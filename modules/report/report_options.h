@@ -10,7 +10,7 @@
 namespace relight {
 
 inline const StageInfo kReportStage{
-    "report", "HTML report: photos beside re-renderings, environment maps, materials, relit views, charts", 1};
+    "report", "HTML report: cameras and geometry, photos beside re-renderings, environment maps, materials, relit views, charts", 2};
 
 struct ReportOptions {
   std::string title;               // page title; empty: "relight report: <workspace name>"

@@ -9,6 +9,7 @@
 
 #include "core/fs.h"
 #include "core/log.h"
+#include "image/image.h"
 #include "report/charts.h"
 #include "report/html.h"
 #include "testing/testing.h"
@@ -57,6 +58,37 @@ TEST(Report, PageWithoutUpstreamOutputs) {
   EXPECT_EQ(page.find("<img"), std::string::npos) << "no image without a file behind it";
   EXPECT_EQ(s.images, 0);
   EXPECT_FALSE(fs::exists(dir / "metrics.json"));
+}
+
+// The cameras and geometry section from the sfm summary and the mesh stage's views: the photos that did not
+// register with their reasons, the mapper runs, and photo / points / mesh side by side.
+TEST(Report, CamerasAndGeometrySection) {
+  InitLogging("report_test", "", LogLevel::kWarning);
+  testing::TempDir dir;
+  for (const char* d : {"sfm", "mesh/views", "ingest/images", "out"}) fs::create_directories(dir / d);
+  WriteFileAtomic(dir / "sfm/sfm_summary.json", R"({"mode": "colmap", "num_photos": 3, "num_registered": 2,
+    "consensus": "agreed", "mapper_runs": [{"first_pair": "a.png + b.png", "num_registered": 2,
+    "photo_pairs_checked": 1, "photo_pairs_agreeing": 1, "kept": true}],
+    "photos": [{"name": "a.png", "registered": true}, {"name": "b.png", "registered": true},
+               {"name": "c.png", "registered": false, "reason": "no verified matches with any other photo"}]})");
+  Image grey(8, 6, 3, 0.5f);
+  WriteImage(dir / "ingest/images/a.png", grey);
+  WriteImage(dir / "mesh/views/a_mesh.png", grey);
+  WriteImage(dir / "mesh/views/a_points.png", grey);
+  WriteFileAtomic(dir / "ingest/manifest.json",
+                  R"({"photos": [{"name": "a.png", "file": "images/a.png", "linear": false}]})");
+  WriteFileAtomic(dir / "mesh/views.json",
+                  R"({"views": [{"photo": "a.png", "mesh": "views/a_mesh.png", "points": "views/a_points.png"}]})");
+  const ReportSummary s =
+      RunReport(ReportOptions(), {{"sfm", dir / "sfm"}, {"mesh", dir / "mesh"}, {"ingest", dir / "ingest"}},
+                dir / "out");
+  const std::string page = ReadFileToString(dir / "out/index.html");
+  EXPECT_NE(page.find("id=\"geometry\""), std::string::npos);
+  EXPECT_NE(page.find("2 of 3 photos registered"), std::string::npos);
+  EXPECT_NE(page.find("no verified matches with any other photo"), std::string::npos);
+  EXPECT_NE(page.find("a.png + b.png"), std::string::npos);
+  EXPECT_EQ(s.images, 3);  // photo, points, mesh
+  EXPECT_TRUE(fs::exists(dir / "out/images/geometry/a_mesh.png"));
 }
 
 }  // namespace

@@ -14,6 +14,9 @@
 #include <set>
 #include <sstream>
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
@@ -23,6 +26,9 @@
 #include "image/image.h"
 #include "sfm/colmap_command.h"
 #include "sfm/colmap_database.h"
+#include "sfm/descriptor_matching.h"
+#include "sfm/model_consensus.h"
+#include "sfm/two_view_verification.h"
 
 namespace relight {
 namespace fs = std::filesystem;
@@ -32,6 +38,13 @@ namespace {
 // Minimum inliers for a pair to count as "matched" in diagnostics (COLMAP's
 // two-view geometry default min_num_inliers).
 constexpr int kMinPairInliers = 15;
+
+// What a user can change when photos do not register.
+constexpr const char* kWhatToChange =
+    "What to change: photos of neighbouring viewpoints should be at most about 15-20 degrees apart and show the "
+    "object at a similar size; photos of at least 1000 pixels give more features than small ones; photos taken "
+    "under very different light (sun and shadow moving) match poorly, so add photos in between. If the cameras "
+    "are known, give them (sfm.mode: model); stage.log has COLMAP's output";
 
 double Median(std::vector<double> v) {
   if (v.empty()) return 0;
@@ -316,18 +329,393 @@ void CheckRegistered(const SfmOptions& options, const SfmSummary& summary, const
                          << "); unregistered: " << JoinNames(dropped)
                          << ". Add photos that overlap more, or see stage.log for COLMAP's output";
   }
-  if (!dropped.empty()) {
-    std::string details;
-    for (const auto& p : summary.photos) {
-      if (!p.registered) details += "\n  " + p.name + ": " + p.reason;
+  std::string details;
+  for (const auto& p : summary.photos) {
+    if (!p.registered) details += "\n  " + p.name + ": " + p.reason;
+  }
+  // A partial or unreliable reconstruction stops the chain unless the user accepts it.
+  std::vector<std::string> problems;
+  int usable = 0;  // photos with features
+  for (const auto& p : summary.photos) usable += p.num_keypoints != 0 ? 1 : 0;
+  if (summary.mode == "colmap") {
+    if (2 * summary.num_registered < usable) {
+      problems.push_back("only " + std::to_string(summary.num_registered) + " of the " + std::to_string(usable) +
+                         " photos with features registered");
     }
+    if (summary.second_model_size >= 3) {
+      problems.push_back("the photos split into " + std::to_string(summary.num_models) +
+                         " separate reconstructions (the largest holds " + std::to_string(summary.num_registered) +
+                         " photos, the next " + std::to_string(summary.second_model_size) +
+                         "): nothing links them");
+    }
+    if (summary.consensus == "disagreed" || summary.consensus == "inconsistent") {
+      const SfmMapperRun& kept = summary.mapper_runs[summary.chosen_run];
+      problems.push_back(
+          summary.consensus == "disagreed"
+              ? std::to_string(summary.mapper_runs.size()) +
+                    " mapper runs from different first pairs placed the cameras differently, so no reconstruction "
+                    "can be trusted (a wrong model can have a normal reprojection error)"
+              : "the reconstruction contradicts its own photo pairs: only " + std::to_string(kept.pairs_agreeing) +
+                    " of " + std::to_string(kept.pairs_checked) +
+                    " pairs' matches fit it (a wrong model can have a normal reprojection error)");
+    }
+  }
+  std::vector<std::string> unstable;
+  for (const auto& p : summary.photos) {
+    if (p.registered && p.unstable) unstable.push_back(p.name);
+  }
+  if (!unstable.empty()) {
+    RLOG_WARN("{} registered photo(s) were placed differently by an independent mapper run: {}; their cameras may "
+              "be wrong",
+              unstable.size(), JoinNames(unstable));
+  }
+  if (!problems.empty()) {
+    std::string message;
+    for (const auto& p : problems) message += (message.empty() ? "" : "; ") + p;
+    message += std::string(". ") + kWhatToChange;
+    if (!options.allow_partial) {
+      RELIGHT_USER_ERROR() << where << ": structure from motion is not reliable: " << message
+                           << "; or set sfm.allow_partial: true to go on with the largest model (the "
+                           << "reconstruction will miss photos or be wrong). Unregistered photos:" << details;
+    }
+    RLOG_WARN("structure from motion is not reliable (sfm.allow_partial is set, going on): {}", message);
+  }
+  if (!dropped.empty()) {
     RLOG_WARN("{} of {} photos are not in the model and are dropped:{}", dropped.size(), summary.num_photos, details);
   }
 }
 
-SfmSummary RunColmapMode(const SfmOptions& options, const std::string& ingest_dir,
-                         const std::vector<IngestedPhoto>& photos, const std::string& output_dir, int threads,
-                         SfmSummary summary) {
+// Per-photo features and verified partners, for messages ("median 312 features per photo, ...; a.jpg: 120
+// features, matched with 0 photos; ...").
+std::string PhotoFeatureReport(const SfmSummary& summary, const std::vector<IngestedPhoto>& photos) {
+  std::vector<double> features;
+  for (const auto& p : summary.photos) features.push_back(std::max(0, p.num_keypoints));
+  int longest = 0;
+  for (const auto& p : photos) longest = std::max({longest, p.width, p.height});
+  std::ostringstream s;
+  s << "median " << Median(features) << " SIFT features per photo, the largest photo " << longest << " px";
+  int listed = 0;
+  for (const auto& p : summary.photos) {
+    if (listed++ == 12) {
+      s << "; ...";
+      break;
+    }
+    s << "; " << p.name << ": " << std::max(0, p.num_keypoints) << " features, verified matches with "
+      << std::max(0, p.num_matched_photos) << " photo(s)";
+  }
+  return s.str();
+}
+
+// Putative matches of every pair (exhaustive) or of each photo with its next
+// `overlap` photos in name order (sequential), by our exact descriptor search
+// (descriptor_matching.h), into the database's `matches` table.
+void MatchFeatures(const std::string& database, const std::string& matcher, int overlap, int threads,
+                   std::vector<std::pair<std::string, double>>* step_seconds) {
+  Timer timer;
+  ColmapDatabase db(database);
+  std::vector<DatabaseImage> images = db.ReadImages();
+  std::sort(images.begin(), images.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
+  std::vector<DescriptorMatrix> descriptors(images.size());
+  for (size_t i = 0; i < images.size(); ++i) {
+    int rows = 0, cols = 0;
+    const std::vector<uint8_t> data = db.ReadDescriptors(images[i].image_id, &rows, &cols);
+    descriptors[i] = NormalizedDescriptors(data, rows, cols);
+  }
+  std::vector<std::pair<int, int>> pairs;  // indices into `images`
+  for (int i = 0; i < static_cast<int>(images.size()); ++i) {
+    const int last = matcher == "sequential" ? std::min<int>(images.size() - 1, i + overlap) : images.size() - 1;
+    for (int j = i + 1; j <= last; ++j) pairs.emplace_back(i, j);
+  }
+  std::vector<DatabaseMatches> results(pairs.size());
+  Progress progress("match features (" + matcher + ")", static_cast<int64_t>(pairs.size()));
+  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    tbb::parallel_for(size_t(0), pairs.size(), [&](size_t k) {
+      auto [i, j] = pairs[k];
+      DatabaseMatches& m = results[k];
+      const bool swap = images[i].image_id > images[j].image_id;  // COLMAP stores the smaller id first
+      const int a = swap ? j : i, b = swap ? i : j;
+      m.image_id1 = images[a].image_id;
+      m.image_id2 = images[b].image_id;
+      m.matches = MatchDescriptors(descriptors[a], descriptors[b], DescriptorMatchingOptions{});
+      progress.Advance();
+    });
+  });
+  progress.Finish();
+  std::vector<DatabaseMatches> kept;
+  for (auto& m : results) {
+    if (static_cast<int>(m.matches.size()) >= kMinPairInliers) kept.push_back(std::move(m));
+  }
+  db.ReplaceMatches(kept);
+  step_seconds->emplace_back("match features (" + matcher + ")", timer.Seconds());
+  RLOG_INFO("matching ({}): {} photo pairs, {} with at least {} putative matches", matcher, pairs.size(),
+            kept.size(), kMinPairInliers);
+}
+
+// Runs a COLMAP command that reads `model` from --input_path and writes a model to --output_path (fresh
+// folders under `work`, removed afterwards) and returns that model; every image must come back.
+Reconstruction RunModelCommand(ColmapCommand command, const Reconstruction& model, const std::string& work,
+                               const std::string& label, std::vector<std::pair<std::string, double>>* step_seconds) {
+  const std::string in_dir = JoinPath(work, "model_in"), out_dir = JoinPath(work, "model_out");
+  std::error_code ec;
+  for (const auto& d : {in_dir, out_dir}) {
+    fs::remove_all(d, ec);
+    EnsureDir(d);
+  }
+  model.WriteBinary(in_dir);
+  command.Arg("--input_path", in_dir).Arg("--output_path", out_dir);
+  RunStep(label, command, "", 0, step_seconds);
+  Reconstruction out = Reconstruction::Read(out_dir);
+  if (out.images.size() != model.images.size()) {
+    RELIGHT_USER_ERROR() << "COLMAP " << command.command << " returned " << out.images.size() << " of "
+                         << model.images.size() << " images in " << out_dir << " (see stage.log)";
+  }
+  fs::remove_all(in_dir, ec);
+  fs::remove_all(out_dir, ec);
+  return out;
+}
+
+// Replaces COLMAP's verified geometries by our deterministic ones
+// (two_view_verification.h); returns the pairs with at least kMinPairInliers.
+int VerifyMatches(const std::string& database, int seed, int threads,
+                  std::vector<std::pair<std::string, double>>* step_seconds) {
+  Timer timer;
+  ColmapDatabase db(database);
+  const std::vector<DatabaseMatches> all = db.ReadAllMatches();
+  std::map<int, std::vector<Eigen::Vector2d>> keypoints;
+  for (const auto& m : all) {
+    for (int id : {m.image_id1, m.image_id2}) {
+      if (!keypoints.count(id)) keypoints[id] = db.ReadKeypoints(id);
+    }
+  }
+  TwoViewVerificationOptions verify;
+  verify.min_num_inliers = kMinPairInliers;
+  verify.seed = seed;
+  std::vector<DatabaseTwoViewGeometry> geometries(all.size());
+  std::vector<char> verified(all.size(), 0);
+  Progress progress("verify matches", static_cast<int64_t>(all.size()));
+  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    tbb::parallel_for(size_t(0), all.size(), [&](size_t i) {
+      const DatabaseMatches& m = all[i];
+      const auto& k1 = keypoints.at(m.image_id1);
+      const auto& k2 = keypoints.at(m.image_id2);
+      std::vector<Eigen::Vector2d> p1, p2;
+      std::vector<std::array<uint32_t, 2>> valid;
+      for (const auto& [a, b] : m.matches) {
+        if (a < k1.size() && b < k2.size()) {
+          p1.push_back(k1[a]);
+          p2.push_back(k2[b]);
+          valid.push_back({a, b});
+        }
+      }
+      const TwoViewVerification v = VerifyTwoView(p1, p2, verify);
+      if (v.verified) {
+        DatabaseTwoViewGeometry& g = geometries[i];
+        g.image_id1 = m.image_id1;
+        g.image_id2 = m.image_id2;
+        g.config = v.config;
+        g.F = v.F;
+        g.H = v.H;
+        for (int k : v.inliers) g.inlier_matches.push_back(valid[k]);
+        verified[i] = 1;
+      }
+      progress.Advance();
+    });
+  });
+  progress.Finish();
+  std::vector<DatabaseTwoViewGeometry> kept;
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (verified[i]) kept.push_back(std::move(geometries[i]));
+  }
+  db.ReplaceTwoViewGeometries(kept);
+  step_seconds->emplace_back("verify matches", timer.Seconds());
+  return static_cast<int>(kept.size());
+}
+
+// Photos and models of one mapper run's output folder.
+MapperRun ReadMapperRun(const std::string& dir, const std::string& init_pair, double seconds) {
+  MapperRun run;
+  run.init_pair = init_pair;
+  run.seconds = seconds;
+  std::vector<Reconstruction> models = ReadModels(dir);
+  run.num_models = static_cast<int>(models.size());
+  if (models.empty()) return run;
+  run.num_registered = static_cast<int>(models[0].images.size());
+  run.second_model_size = models.size() > 1 ? static_cast<int>(models[1].images.size()) : 0;
+  run.mean_reprojection_error_px = models[0].MeanReprojectionError();
+  run.model = std::move(models[0]);
+  return run;
+}
+
+// Runs COLMAP's mapper until two runs from different first pairs agree (or
+// sfm.max_mapper_runs is reached) and keeps the consensus run
+// (model_consensus.h). Every run lets COLMAP choose its first pair, with the
+// first pairs of the earlier runs withheld from its database copy: COLMAP's own
+// choice weighs the pair's triangulation angle, which a pair forced on it does
+// not, and a forced weak pair builds no model.
+std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapCommand& base,
+                                        const std::string& database, const std::string& models_root, int n,
+                                        SfmSummary* summary) {
+  std::error_code ec;
+  fs::remove_all(models_root, ec);
+  EnsureDir(models_root);
+  std::map<int, std::string> names;
+  std::vector<PairObservations> pair_observations;  // every verified pair's matches, for the two-view check
+  std::vector<DatabaseTwoViewGeometry> geometries;
+  {
+    ColmapDatabase db(database);
+    for (const auto& im : db.ReadImages()) names[im.image_id] = im.name;
+    geometries = db.ReadTwoViewGeometries();
+    std::map<int, std::vector<Eigen::Vector2d>> keypoints;
+    for (const auto& g : geometries) {
+      PairObservations o;
+      o.name1 = names[g.image_id1];
+      o.name2 = names[g.image_id2];
+      for (int id : {g.image_id1, g.image_id2}) {
+        if (!keypoints.count(id)) keypoints[id] = db.ReadKeypoints(id);
+      }
+      const auto& k1 = keypoints[g.image_id1];
+      const auto& k2 = keypoints[g.image_id2];
+      for (const auto& [i, j] : g.inlier_matches) {
+        if (i < k1.size() && j < k2.size()) {
+          o.points1.push_back(k1[i]);
+          o.points2.push_back(k2[j]);
+        }
+      }
+      pair_observations.push_back(std::move(o));
+    }
+  }
+  std::set<std::pair<int, int>> withheld;  // first pairs of earlier runs
+  std::vector<MapperRun> runs;
+  const double kToleranceDeg = 2.0;       // two runs agree on a photo
+  const double kTwoViewMaxErrorPx = 4.0;  // a pair's match fits the model's epipolar geometry
+  const int min_photos = std::min(std::max(3, options.min_model_size), n);
+  for (int attempt = 0; attempt < options.max_mapper_runs; ++attempt) {
+    ColmapCommand map = base;
+    std::string run_database = database;
+    if (attempt > 0) {
+      run_database = JoinPath(models_root, "database_" + std::to_string(attempt) + ".db");
+      fs::copy_file(database, run_database, fs::copy_options::overwrite_existing);
+      std::vector<DatabaseTwoViewGeometry> kept;
+      for (const auto& g : geometries) {
+        if (!withheld.count({g.image_id1, g.image_id2})) kept.push_back(g);
+      }
+      ColmapDatabase(run_database).ReplaceTwoViewGeometries(kept);
+      for (auto& [key, value] : map.args) {
+        if (key == "--database_path") value = run_database;
+      }
+    }
+    const std::string dir = JoinPath(models_root, "run_" + std::to_string(attempt));
+    EnsureDir(dir);  // mapper fails when its output folder is missing
+    map.Arg("--output_path", dir);
+    // The first pair of the first model: the last one COLMAP tried before it registered a third photo.
+    int last_a = -1, last_b = -1, first_a = -1, first_b = -1;
+    RLOG_INFO("map, run {} of at most {} ({} first pair(s) withheld): {}", attempt + 1, options.max_mapper_runs,
+              withheld.size(), map.ToString());
+    Progress progress("map (run " + std::to_string(attempt + 1) + ")", n);
+    int64_t shown = 0;
+    const ColmapResult result = RunColmap(map, [&](const std::string& line) {
+      int a = 0, b = 0, k = 0;
+      if (std::sscanf(line.c_str(), "Initializing with image pair #%d and #%d", &a, &b) == 2) {
+        last_a = a;
+        last_b = b;
+      }
+      const size_t paren = line.rfind('(');
+      if (line.rfind("Registering image #", 0) == 0 && paren != std::string::npos &&
+          std::sscanf(line.c_str() + paren, "(%d)", &k) == 1) {
+        if (first_a < 0) {
+          first_a = last_a;
+          first_b = last_b;
+        }
+        if (k > shown) {
+          progress.Advance(std::min<int64_t>(k, n) - shown);
+          shown = std::min<int64_t>(k, n);
+        }
+      }
+    });
+    progress.Finish();
+    if (run_database != database) fs::remove(run_database, ec);
+    summary->step_seconds.emplace_back("map (run " + std::to_string(attempt + 1) + ")", result.seconds);
+    if (first_a < 0) {
+      RLOG_INFO("map, run {}: no model ({})", attempt + 1, result.Describe());
+      break;  // no pair left that COLMAP can start from
+    }
+    withheld.insert({std::min(first_a, first_b), std::max(first_a, first_b)});
+    MapperRun run = ReadMapperRun(dir, names[first_a] + " + " + names[first_b], result.seconds);
+    if (!result.ok() && run.num_models > 0) {
+      RLOG_WARN("COLMAP mapper: {} but it wrote {} model(s); using them", result.Describe(), run.num_models);
+    }
+    if (run.num_registered < min_photos) {
+      RLOG_INFO("map, run {}: no model of at least {} photos from first pair {}", attempt + 1, min_photos,
+                run.init_pair);
+      continue;
+    }
+    run.two_view = CheckTwoViewAgreement(run.model, pair_observations, kTwoViewMaxErrorPx);
+    RLOG_INFO("map, run {} (first pair {}): {} model(s), the largest with {} of {} photos (reprojection error "
+              "{:.2f} px; {} of {} photo pairs agree with it)",
+              attempt + 1, run.init_pair, run.num_models, run.num_registered, n, run.mean_reprojection_error_px,
+              run.two_view.agreeing, run.two_view.pairs);
+    runs.push_back(std::move(run));
+    const int chosen = ChooseConsensusRun(&runs, kToleranceDeg);
+    if (chosen >= 0 && !runs[chosen].agrees_with.empty() && Consistent(runs[chosen].two_view)) {
+      break;  // two runs agree and their photo pairs agree with them
+    }
+  }
+  const int with_model = static_cast<int>(runs.size());
+  summary->chosen_run = ChooseConsensusRun(&runs, kToleranceDeg);
+  for (const auto& run : runs) {
+    SfmMapperRun s;
+    s.init_pair = run.init_pair;
+    s.num_models = run.num_models;
+    s.num_registered = run.num_registered;
+    s.second_model_size = run.second_model_size;
+    s.mean_reprojection_error_px = run.mean_reprojection_error_px;
+    s.seconds = run.seconds;
+    s.agrees_with = run.agrees_with;
+    s.pairs_checked = run.two_view.pairs;
+    s.pairs_agreeing = run.two_view.agreeing;
+    summary->mapper_runs.push_back(s);
+  }
+  const int c = summary->chosen_run;
+  if (c < 0) {
+    summary->consensus = "none";
+  } else if (!Consistent(runs[c].two_view)) {
+    summary->consensus = "inconsistent";  // its own photo pairs contradict it
+  } else if (!runs[c].agrees_with.empty()) {
+    summary->consensus = "agreed";
+  } else {
+    // No other run agrees: that counts against the kept model only when the other run is itself consistent
+    // with its photo pairs (a run that contradicts its own pairs is wrong, not a second opinion).
+    bool contested = false;
+    for (int j = 0; j < with_model; ++j) {
+      if (j != c && runs[j].two_view.pairs >= 3 && Consistent(runs[j].two_view)) contested = true;
+    }
+    summary->consensus = contested                       ? "disagreed"
+                         : runs[c].two_view.pairs >= 3   ? "consistent"
+                                                         : "unchecked";
+  }
+  if (c >= 0) {
+    // Photos that a run agreeing overall placed differently (colmap names; renamed with the model later).
+    std::set<std::string> unstable;
+    for (int j : runs[c].agrees_with) {
+      for (const auto& name : CompareModels(runs[c].model, runs[j].model, kToleranceDeg).differing) {
+        unstable.insert(name);
+      }
+    }
+    // ... and photos most of whose checked pairs contradict the model.
+    for (const auto& [name, counts] : runs[c].two_view.per_photo) {
+      if (counts.second >= 2 && 2 * counts.first < counts.second) unstable.insert(name);
+    }
+    for (auto& p : summary->photos) p.unstable = unstable.count(p.colmap_name) > 0;
+    RLOG_INFO("mapper runs: {} ({} run(s); kept run {}, first pair {})", summary->consensus, runs.size(), c + 1,
+              runs[c].init_pair);
+  }
+  return runs;
+}
+
+void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, const std::vector<IngestedPhoto>& photos,
+                   const std::string& output_dir, int threads, SfmSummary& summary) {
   CheckColmapAvailable();
   const std::string work = JoinPath(output_dir, "colmap");
   std::error_code ec;
@@ -378,6 +766,7 @@ SfmSummary RunColmapMode(const SfmOptions& options, const std::string& ingest_di
   if (!fs::is_regular_file(database)) {
     RELIGHT_USER_ERROR() << "COLMAP feature_extractor wrote no database at '" << database << "' (see stage.log)";
   }
+  ColmapDatabase(database).CanonicalizeIds();
   {
     ColmapDatabase db(database);
     std::map<std::string, int> keypoints;
@@ -414,117 +803,85 @@ SfmSummary RunColmapMode(const SfmOptions& options, const std::string& ingest_di
   RLOG_INFO("intrinsics refinement: {}", summary.refine_intrinsics);
 
   summary.matcher = ChooseMatcher(options, n);
-  ColmapCommand match{summary.matcher + "_matcher", {}};
-  match.Arg("--database_path", database)
-      .Arg("--SiftMatching.use_gpu", false)
-      .Arg("--SiftMatching.num_threads", thread_count)
-      .Arg("--random_seed", options.seed);
-  std::string marker = "Matching block";
-  int64_t match_total = 0;
-  if (summary.matcher == "exhaustive") {
-    const int block = 50;  // COLMAP's ExhaustiveMatching.block_size default
-    const int blocks = (n + block - 1) / block;
-    match_total = int64_t(blocks) * blocks;
-  } else if (summary.matcher == "sequential") {
-    match.Arg("--SequentialMatching.overlap", options.sequential_overlap);
-    if (!options.vocab_tree.empty()) {
-      match.Arg("--SequentialMatching.loop_detection", true)
-          .Arg("--SequentialMatching.vocab_tree_path", options.vocab_tree);
-    }
-    marker = "Matching image";
-    match_total = n;
-  } else if (summary.matcher == "vocab_tree") {
-    match.Arg("--VocabTreeMatching.vocab_tree_path", options.vocab_tree);
-    marker = "Matching image";
-    match_total = n;
+  if (summary.matcher == "exhaustive" || summary.matcher == "sequential") {
+    MatchFeatures(database, summary.matcher, options.sequential_overlap, threads, &summary.step_seconds);
   } else {
-    marker = "Matching image";
-    match_total = n;
+    // COLMAP's spatial and vocabulary-tree matchers: their kd-tree search is not seeded, so matches (and
+    // possibly the registration) vary slightly between runs.
+    ColmapCommand match{summary.matcher + "_matcher", {}};
+    match.Arg("--database_path", database)
+        .Arg("--SiftMatching.use_gpu", false)
+        .Arg("--SiftMatching.num_threads", thread_count)
+        .Arg("--random_seed", options.seed);
+    if (summary.matcher == "vocab_tree") match.Arg("--VocabTreeMatching.vocab_tree_path", options.vocab_tree);
+    RunStep("match features (" + summary.matcher + ")", match, "Matching image", n, &summary.step_seconds);
   }
-  // A single exhaustive block reports no progress, so the bar would only jump at the end.
-  RunStep("match features (" + summary.matcher + ")", match, marker, match_total, &summary.step_seconds);
-  int verified_pairs = 0;
+  const int verified_pairs = VerifyMatches(database, options.seed, threads, &summary.step_seconds);
   {
     ColmapDatabase db(database);
-    verified_pairs = db.CountVerifiedPairs(kMinPairInliers);
     std::map<std::string, int> partners;
     for (const auto& im : db.ReadImages(kMinPairInliers)) partners[im.name] = im.num_verified_partners;
     for (auto& p : summary.photos) {
       p.num_matched_photos = partners.count(p.colmap_name) ? partners[p.colmap_name] : 0;
       if (p.reason.empty() && p.num_matched_photos == 0) {
-        p.reason = "no verified matches with any other photo (different object or too little overlap)";
+        p.reason = "no verified matches with any other photo (different object, too little overlap, or the "
+                   "light changed too much between it and its neighbours)";
       }
     }
     RLOG_INFO("matching: {} photo pairs with at least {} verified matches", verified_pairs, kMinPairInliers);
   }
   if (verified_pairs == 0) {
     RELIGHT_USER_ERROR() << "nothing registered: no two of the " << n << " photos of " << ingest_dir
-                         << " share enough features to be matched. Check that the photos show the same object "
-                         << "from overlapping viewpoints, and add photos in between";
+                         << " share enough features to be matched (" << PhotoFeatureReport(summary, photos)
+                         << "). " << kWhatToChange;
   }
 
-  const std::string models_dir = JoinPath(work, "sparse");
-  EnsureDir(models_dir);  // mapper fails when its output folder is missing
+  // One thread: COLMAP's multi-threaded bundle adjustment sums in a varying order, and the small differences
+  // grew to 0.09 scene units between two runs on the same photos; mapping is a small part of the stage's time.
   ColmapCommand map{"mapper", {}};
   map.Arg("--database_path", database)
       .Arg("--image_path", image_dir)
-      .Arg("--output_path", models_dir)
-      .Arg("--Mapper.num_threads", thread_count)
+      .Arg("--Mapper.num_threads", 1)
       .Arg("--Mapper.min_model_size", std::min(options.min_model_size, n))
       .Arg("--Mapper.abs_pose_min_num_inliers", options.abs_pose_min_num_inliers)
       .Arg("--Mapper.abs_pose_min_inlier_ratio", options.abs_pose_min_inlier_ratio)
-      .Arg("--Mapper.ba_refine_principal_point", options.refine_principal_point)
+      .Arg("--Mapper.ba_refine_principal_point", false)
       .Arg("--Mapper.ba_refine_focal_length", summary.refine_intrinsics == "mapping")
       .Arg("--Mapper.ba_refine_extra_params", summary.refine_intrinsics == "mapping")
       .Arg("--random_seed", options.seed);
-  // The mapper exits with 1 when it finds no initial pair: judged by its output below.
-  const ColmapResult mapped = RunStep("map", map, "", n, &summary.step_seconds, /*throw_on_failure=*/false);
-  std::vector<Reconstruction> models = ReadModels(models_dir);
-  summary.num_models = static_cast<int>(models.size());
-  if (models.empty()) {
-    RELIGHT_USER_ERROR() << "nothing registered: COLMAP's mapper built no model from the " << n << " photos of "
-                         << ingest_dir << " (" << verified_pairs
-                         << " matched photo pairs; mapper: " << mapped.TailText(2)
-                         << "). Add photos with more overlap and texture, or lower "
-                         << "sfm.abs_pose_min_num_inliers / sfm.min_model_size; see stage.log";
+  std::vector<MapperRun> runs = MapWithConsensus(options, map, database, JoinPath(work, "sparse"), n, &summary);
+  const int chosen = summary.chosen_run;
+  if (chosen < 0) {
+    RELIGHT_USER_ERROR() << "nothing registered: COLMAP's mapper built no model of at least "
+                         << std::min(std::max(3, options.min_model_size), n) << " photos from the " << n
+                         << " photos of " << ingest_dir << ": only " << verified_pairs
+                         << " photo pairs share verified matches, too few to chain (" << PhotoFeatureReport(summary, photos)
+                         << "). " << kWhatToChange;
   }
-  if (!mapped.ok())
-    RLOG_WARN("COLMAP mapper: {} but it wrote {} model(s); using them", mapped.Describe(), models.size());
-  for (size_t i = 1; i < models.size(); ++i) {
-    std::vector<std::string> names;
-    for (const auto& [id, im] : models[i].images) names.push_back(im.name);
-    RLOG_WARN("COLMAP built {} separate models; model {} ({} photos: {}) is dropped, the largest has {}", models.size(),
-              i, names.size(), JoinNames(names), models[0].images.size());
+  summary.num_models = runs[chosen].num_models;
+  summary.second_model_size = runs[chosen].second_model_size;
+  Reconstruction model = std::move(runs[chosen].model);
+  runs.clear();
+  // The principal point: a camera shared by many photos constrains it (an off-centre principal point otherwise
+  // turns every camera by atan(offset / focal): 0.9 deg on the Middlebury temple, 18 px off in 1520).
+  bool refine_pp = options.refine_principal_point == "always";
+  if (options.refine_principal_point == "auto") {
+    std::map<uint32_t, int> photos_per_camera;
+    for (const auto& [id, im] : model.images) ++photos_per_camera[im.camera_id];
+    for (const auto& [camera, count] : photos_per_camera) refine_pp = refine_pp || count >= 10;
   }
-  Reconstruction model = std::move(models[0]);
-  models.clear();
-  if (summary.refine_intrinsics == "final") {
-    // One global bundle adjustment of the largest model with focal length and distortion free.
-    const std::string ba_in = JoinPath(work, "largest");
-    const std::string ba_out = JoinPath(work, "refined");
-    for (const auto& d : {ba_in, ba_out}) {
-      fs::remove_all(d, ec);
-      EnsureDir(d);
-    }
-    model.WriteBinary(ba_in);
+  summary.principal_point_refined = refine_pp;
+  if (summary.refine_intrinsics == "final" || refine_pp) {
+    // One global bundle adjustment of the largest model with the intrinsics to refine free.
     ColmapCommand ba{"bundle_adjuster", {}};
-    ba.Arg("--input_path", ba_in)
-        .Arg("--output_path", ba_out)
-        .Arg("--BundleAdjustment.refine_focal_length", true)
-        .Arg("--BundleAdjustment.refine_extra_params", true)
-        .Arg("--BundleAdjustment.refine_principal_point", options.refine_principal_point)
+    ba.Arg("--BundleAdjustment.refine_focal_length", summary.refine_intrinsics != "never")
+        .Arg("--BundleAdjustment.refine_extra_params", summary.refine_intrinsics != "never")
+        .Arg("--BundleAdjustment.refine_principal_point", refine_pp)
         .Arg("--random_seed", options.seed);
-    RunStep("refine intrinsics", ba, "", 0, &summary.step_seconds);
-    Reconstruction refined = Reconstruction::Read(ba_out);
-    if (refined.images.size() != model.images.size()) {
-      RELIGHT_USER_ERROR() << "COLMAP bundle_adjuster returned " << refined.images.size() << " of "
-                           << model.images.size() << " images in " << ba_out << " (see stage.log)";
-    }
+    Reconstruction refined = RunModelCommand(ba, model, work, "refine intrinsics", &summary.step_seconds);
     RLOG_INFO("final bundle adjustment: reprojection error {:.3f} -> {:.3f} px", model.MeanReprojectionError(),
               refined.MeanReprojectionError());
     model = std::move(refined);
-    fs::remove_all(ba_in, ec);
-    fs::remove_all(ba_out, ec);
   }
 
   // Name maps and reasons for photos left out of the largest model.
@@ -541,27 +898,182 @@ SfmSummary RunColmapMode(const SfmOptions& options, const std::string& ingest_di
     }
   }
 
+  {
+    Reconstruction renamed = model;
+    RenameImages(name_from_colmap, &renamed);
+    MarkRegistered(renamed, &summary);
+  }
+  CheckRegistered(options, summary, ingest_dir);
+
   // World frame: +Z up.
   summary.world_from_colmap = options.align_up ? UpAlignment(model) : Sim3();
   model.Transform(summary.world_from_colmap);
   Undistort(options, model, work, image_dir, output_dir, &summary);
-
   RenameImages(name_from_colmap, &model);
-  MarkRegistered(model, &summary);
-  CheckRegistered(options, summary, ingest_dir);
   WriteModels(model, output_dir);
 
   // The working folder: links to the ingest cache, raw models, the database.
   fs::remove_all(image_dir, ec);
   fs::remove_all(JoinPath(work, "world"), ec);
   if (!options.keep_database) fs::remove(database, ec);
-  return summary;
+}
+
+// Sparse points for given cameras that come without any (ground truth, or a
+// model of poses only): SIFT features matched exhaustively, kept where the
+// known epipolar geometry allows them (a point-to-line test with the true
+// poses rejects far more false matches than a RANSAC estimate could), then
+// triangulated by COLMAP's point_triangulator with every camera held fixed.
+// MVS takes its depth ranges and source views from these points.
+void TriangulateGivenCameras(const SfmOptions& options, const std::string& work, const std::string& image_dir,
+                             int threads, Reconstruction* model, SfmSummary* summary) {
+  const std::string database = JoinPath(work, "database.db");
+  const std::string thread_count = std::to_string(threads > 0 ? threads : -1);
+  const int n = static_cast<int>(model->images.size());
+  const std::string list_path = JoinPath(work, "image_list.txt");
+  {
+    std::string list;
+    for (const auto& [id, im] : model->images) list += im.name + "\n";
+    WriteFileAtomic(list_path, list);
+  }
+  ColmapCommand extract{"feature_extractor", {}};
+  extract.Arg("--database_path", database)
+      .Arg("--image_path", image_dir)
+      .Arg("--image_list_path", list_path)
+      .Arg("--ImageReader.single_camera_per_image", true)
+      .Arg("--SiftExtraction.use_gpu", false)
+      .Arg("--SiftExtraction.num_threads", thread_count)
+      .Arg("--SiftExtraction.max_image_size", options.max_image_size)
+      .Arg("--SiftExtraction.max_num_features", options.max_num_features);
+  RunStep("extract features", extract, "Processed file", n, &summary->step_seconds);
+  ColmapDatabase(database).CanonicalizeIds();
+
+  // The database's images and cameras take the given cameras; every pair is matched along its known epipolar
+  // lines (guided matching: a descriptor competes only with the keypoints near its line, so far more true
+  // matches pass the ratio test than in an unguided search).
+  Timer timer;
+  Reconstruction input;  // the given model with the database's ids, no points
+  size_t num_pairs = 0;  // pairs with enough matches
+  {
+    ColmapDatabase db(database);
+    std::map<std::string, DatabaseImage> by_name;
+    for (const auto& im : db.ReadImages()) by_name[im.name] = im;
+    std::vector<int> ids;  // database image ids of the given images
+    for (const auto& [id, im] : model->images) {
+      auto it = by_name.find(im.name);
+      if (it == by_name.end()) continue;  // COLMAP could not read it: no points from this photo
+      const DatabaseImage& d = it->second;
+      const Camera& c = model->cameras.at(im.camera_id);
+      DatabaseCamera cam;
+      cam.camera_id = d.camera_id;
+      cam.model_id = Camera::ModelId(c.model);
+      cam.width = c.width;
+      cam.height = c.height;
+      cam.params = c.params;
+      cam.prior_focal_length = true;
+      db.UpdateCamera(cam);
+      Camera copy = c;
+      copy.camera_id = d.camera_id;
+      input.cameras[d.camera_id] = copy;
+      ImageRecord record = im;
+      record.image_id = d.image_id;
+      record.camera_id = d.camera_id;
+      record.points2d.clear();
+      input.images[d.image_id] = record;
+      ids.push_back(d.image_id);
+    }
+    std::sort(ids.begin(), ids.end());
+    std::map<int, std::vector<Eigen::Vector3d>> rays;  // normalised keypoint rays per image
+    std::map<int, DescriptorMatrix> descriptors;
+    for (int id : ids) {
+      const Camera& c = input.cameras.at(input.images.at(id).camera_id);
+      for (const auto& k : db.ReadKeypoints(id)) rays[id].push_back(c.NormalizedFromImage(k).homogeneous());
+      int rows = 0, cols = 0;
+      const std::vector<uint8_t> data = db.ReadDescriptors(id, &rows, &cols);
+      descriptors[id] = NormalizedDescriptors(data, rows, cols);
+    }
+    std::vector<std::pair<int, int>> pairs;
+    for (size_t i = 0; i < ids.size(); ++i)
+      for (size_t j = i + 1; j < ids.size(); ++j) pairs.emplace_back(ids[i], ids[j]);
+    std::vector<DatabaseMatches> guided(pairs.size());
+    Progress progress("match along the known epipolar lines", static_cast<int64_t>(pairs.size()));
+    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+      tbb::parallel_for(size_t(0), pairs.size(), [&](size_t k) {
+        const auto [ia, ib] = pairs[k];
+        const ImageRecord& a = input.images.at(ia);
+        const ImageRecord& b = input.images.at(ib);
+        const Camera& ca = input.cameras.at(a.camera_id);
+        const Camera& cb = input.cameras.at(b.camera_id);
+        const Eigen::Matrix3d e = EssentialMatrix(a, b);  // the known relative pose
+        const double max_sampson = 4.0 / std::sqrt(ca.FocalX() * cb.FocalX());  // 4 px in normalised units
+        const auto& xa = rays.at(ia);
+        const auto& xb = rays.at(ib);
+        auto near_line = [&](int i, int j) { return SampsonDistance(e, xa[i], xb[j]) <= max_sampson; };
+        DatabaseMatches& m = guided[k];
+        m.image_id1 = ia;
+        m.image_id2 = ib;
+        if (!xa.empty() && !xb.empty()) {
+          // The epipolar band already rejects most false candidates: a looser ratio keeps more true matches.
+          DescriptorMatchingOptions guided_options;
+          guided_options.max_ratio = 0.9;
+          m.matches = MatchDescriptors(descriptors.at(ia), descriptors.at(ib), guided_options, near_line);
+        }
+        progress.Advance();
+      });
+    });
+    progress.Finish();
+    std::vector<DatabaseMatches> kept_matches;
+    std::vector<DatabaseTwoViewGeometry> geometries;
+    for (auto& m : guided) {
+      if (static_cast<int>(m.matches.size()) < kMinPairInliers) continue;
+      const ImageRecord& a = input.images.at(m.image_id1);
+      const ImageRecord& b = input.images.at(m.image_id2);
+      const Camera& ca = input.cameras.at(a.camera_id);
+      const Camera& cb = input.cameras.at(b.camera_id);
+      DatabaseTwoViewGeometry g;
+      g.image_id1 = m.image_id1;
+      g.image_id2 = m.image_id2;
+      g.config = kTwoViewUncalibrated;
+      g.F = cb.K().inverse().transpose() * EssentialMatrix(a, b) * ca.K().inverse();
+      g.inlier_matches = m.matches;
+      geometries.push_back(std::move(g));
+      kept_matches.push_back(std::move(m));
+    }
+    db.ReplaceMatches(kept_matches);
+    db.ReplaceTwoViewGeometries(geometries);
+    num_pairs = geometries.size();
+  }
+  summary->step_seconds.emplace_back("match along the known epipolar lines", timer.Seconds());
+  RLOG_INFO("given cameras: {} photo pairs with at least {} matches along the known epipolar lines", num_pairs,
+            kMinPairInliers);
+  if (num_pairs == 0) {
+    RLOG_WARN("no two photos share features that fit the given cameras: no sparse points (MVS takes its depth "
+              "ranges from the camera poses alone)");
+    return;
+  }
+  ColmapCommand triangulate{"point_triangulator", {}};
+  triangulate.Arg("--database_path", database)
+      .Arg("--image_path", image_dir)
+      .Arg("--Mapper.num_threads", thread_count)
+      .Arg("--Mapper.ba_refine_focal_length", false)
+      .Arg("--Mapper.ba_refine_principal_point", false)
+      .Arg("--Mapper.ba_refine_extra_params", false)
+      .Arg("--Mapper.tri_ignore_two_view_tracks", false);  // the poses are known: two views suffice
+  Reconstruction triangulated = RunModelCommand(triangulate, input, work, "triangulate", &summary->step_seconds);
+  // The given poses stay: COLMAP's bundle adjustment may only have moved the points.
+  double moved = 0;
+  for (const auto& [id, im] : triangulated.images) {
+    moved = std::max(moved, (im.ProjectionCenter() - input.images.at(id).ProjectionCenter()).norm());
+  }
+  RLOG_INFO("given cameras: {} sparse points triangulated (largest camera shift {:.3g})",
+            triangulated.points3d.size(), moved);
+  *model = std::move(triangulated);
 }
 
 // ground_truth and model modes: a given model, conformed to the photos.
-SfmSummary RunGivenModelMode(const SfmOptions& options, const std::string& ingest_dir,
-                             const std::vector<IngestedPhoto>& photos, const std::string& output_dir,
-                             SfmSummary summary) {
+void RunGivenModelMode(const SfmOptions& options, const std::string& ingest_dir,
+                       const std::vector<IngestedPhoto>& photos, const std::string& output_dir, int threads,
+                       SfmSummary& summary) {
   std::string model_dir;
   if (options.mode == "ground_truth") {
     model_dir = JoinPath(ingest_dir, "ground_truth");
@@ -609,10 +1121,17 @@ SfmSummary RunGivenModelMode(const SfmOptions& options, const std::string& inges
   for (const auto& p : summary.photos) colmap_from_name[p.name] = p.colmap_name;
   Reconstruction colmap_names = model;
   RenameImages(colmap_from_name, &colmap_names);
+  if (model.points3d.empty()) {
+    TriangulateGivenCameras(options, work, image_dir, threads, &colmap_names, &summary);
+    std::map<std::string, std::string> name_from_colmap;
+    for (const auto& p : summary.photos) name_from_colmap[p.colmap_name] = p.name;
+    model = colmap_names;
+    RenameImages(name_from_colmap, &model);
+    MarkRegistered(model, &summary);
+  }
   Undistort(options, colmap_names, work, image_dir, output_dir, &summary);
   WriteModels(model, output_dir);
   fs::remove_all(work, ec);
-  return summary;
 }
 
 }  // namespace
@@ -772,7 +1291,27 @@ void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
     j["matcher"] = summary.matcher;
     j["shared_intrinsics"] = summary.shared_intrinsics;
     j["refine_intrinsics"] = summary.refine_intrinsics;
+    j["principal_point_refined"] = summary.principal_point_refined;
     j["num_models"] = summary.num_models;
+    j["second_model_size"] = summary.second_model_size;
+    j["consensus"] = summary.consensus;
+    OrderedJson runs = OrderedJson::array();
+    for (size_t i = 0; i < summary.mapper_runs.size(); ++i) {
+      const SfmMapperRun& r = summary.mapper_runs[i];
+      OrderedJson e;
+      e["first_pair"] = r.init_pair;
+      e["num_models"] = r.num_models;
+      e["num_registered"] = r.num_registered;
+      e["second_model_size"] = r.second_model_size;
+      e["mean_reprojection_error_px"] = r.mean_reprojection_error_px;
+      e["agrees_with_runs"] = r.agrees_with;
+      e["photo_pairs_checked"] = r.pairs_checked;
+      e["photo_pairs_agreeing"] = r.pairs_agreeing;
+      e["kept"] = static_cast<int>(i) == summary.chosen_run;
+      e["seconds"] = r.seconds;
+      runs.push_back(e);
+    }
+    j["mapper_runs"] = runs;
   }
   const Sim3& t = summary.world_from_colmap;
   OrderedJson transform;
@@ -792,6 +1331,7 @@ void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
     if (p.num_keypoints >= 0) e["num_keypoints"] = p.num_keypoints;
     if (p.num_matched_photos >= 0) e["num_matched_photos"] = p.num_matched_photos;
     if (!p.registered) e["reason"] = p.reason;
+    if (p.registered && p.unstable) e["unstable"] = true;
     photos.push_back(e);
   }
   j["photos"] = photos;
@@ -799,6 +1339,7 @@ void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
   for (const auto& [name, seconds] : summary.step_seconds) steps[name] = seconds;
   j["step_seconds"] = steps;
   j["seconds"] = summary.seconds;
+  if (!summary.failure.empty()) j["failure"] = summary.failure;
   WriteJsonAtomic(path, j);
 }
 
@@ -823,10 +1364,18 @@ SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, cons
     summary.photos.push_back(s);
   }
   RLOG_INFO("sfm ({} mode) on {} photos from {}", options.mode, n, ingest_dir);
-  if (options.mode == "colmap") {
-    summary = RunColmapMode(options, ingest_dir, ingest.photos, output_dir, threads, std::move(summary));
-  } else {
-    summary = RunGivenModelMode(options, ingest_dir, ingest.photos, output_dir, std::move(summary));
+  try {
+    if (options.mode == "colmap") {
+      RunColmapMode(options, ingest_dir, ingest.photos, output_dir, threads, summary);
+    } else {
+      RunGivenModelMode(options, ingest_dir, ingest.photos, output_dir, threads, summary);
+    }
+  } catch (const UserError& e) {
+    // The summary says what happened to each photo even when the stage stops.
+    summary.failure = e.what();
+    summary.seconds = timer.Seconds();
+    WriteSfmSummary(summary, JoinPath(output_dir, "sfm_summary.json"));
+    throw;
   }
   summary.seconds = timer.Seconds();
   WriteSfmSummary(summary, JoinPath(output_dir, "sfm_summary.json"));

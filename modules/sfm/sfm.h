@@ -37,6 +37,20 @@ struct SfmPhoto {
   int num_keypoints = -1;       // SIFT features (-1: not extracted, e.g. ground_truth mode)
   int num_matched_photos = -1;  // photos with verified matches (-1: unknown)
   std::string reason;           // why it is not registered
+  bool unstable = false;        // registered, but a mapper run that agrees overall placed it differently
+};
+
+// One run of COLMAP's incremental mapper (model_consensus.h), for the summary.
+struct SfmMapperRun {
+  std::string init_pair;                 // first pair, "a.jpg + b.jpg", or "COLMAP's choice"
+  int num_models = 0;                    // models the run built
+  int num_registered = 0;                // photos in its largest model
+  int second_model_size = 0;             // photos in its second-largest model
+  double mean_reprojection_error_px = 0;
+  double seconds = 0;
+  std::vector<int> agrees_with;          // indices of the runs whose models agree with this one's
+  int pairs_checked = 0;                 // verified photo pairs of its model checked against their own rotation
+  int pairs_agreeing = 0;                // of those, pairs that agree with the model
 };
 
 // Result of the stage (Ceres-style summary).
@@ -45,15 +59,23 @@ struct SfmSummary {
   std::string matcher;            // matcher used (colmap mode)
   std::string shared_intrinsics;  // "single" or "per_image" (colmap mode)
   std::string refine_intrinsics;  // "mapping", "final" or "never" (colmap mode)
+  bool principal_point_refined = false;  // in the final bundle adjustment (colmap mode)
   int num_photos = 0;
   int num_registered = 0;
-  int num_models = 0;  // reconstructions COLMAP produced (the largest is kept)
+  int num_models = 0;  // reconstructions the kept mapper run produced (the largest is kept)
+  int second_model_size = 0;               // photos in the kept run's second-largest model
+  std::vector<SfmMapperRun> mapper_runs;   // colmap mode: every mapper run
+  int chosen_run = -1;                     // index of the kept run
+  // colmap mode: agreed (two runs and the photo pairs agree) | consistent (the photo pairs agree, no consistent
+  // run disagrees) | unchecked (too few pairs to check, no second run) | disagreed | inconsistent | none.
+  std::string consensus;
   size_t num_points3d = 0;
   double mean_reprojection_error_px = 0;
   Sim3 world_from_colmap;  // applied to COLMAP's frame to get the world frame
   std::vector<SfmPhoto> photos;
   std::vector<std::pair<std::string, double>> step_seconds;  // step name -> wall seconds
   double seconds = 0;
+  std::string failure;  // why the stage stopped (empty: it did not)
 
   std::vector<std::string> UnregisteredNames() const;
   // One paragraph for the log.

@@ -11,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kSfmStage{
-    "sfm", "Structure from motion with COLMAP: camera poses and intrinsics in a +Z-up world frame", 1};
+    "sfm", "Structure from motion with COLMAP: camera poses and intrinsics in a +Z-up world frame", 2};
 
 struct SfmOptions {
   std::string mode = "colmap";  // colmap: run COLMAP; ground_truth: <ingest>/ground_truth cameras; model: `model`.
@@ -30,8 +30,10 @@ struct SfmOptions {
   double abs_pose_min_inlier_ratio = 0.25;  // Inlier ratio needed to register a photo.
   std::string refine_intrinsics =
       "auto";                           // When focal length and distortion are refined: auto | mapping | final | never.
-  bool refine_principal_point = false;  // Bundle adjustment refines the principal point (unstable on few photos).
+  std::string refine_principal_point = "auto";  // auto | never | always: principal point refined in the final BA.
   int min_registered = 3;               // Fewer registered photos than this is an error.
+  bool allow_partial = false;           // Go on when SfM is partial (< half registered, split) or unreliable.
+  int max_mapper_runs = 4;              // Mapper runs from different first pairs, until two agree.
   bool align_up = true;                 // Rotate so that the mean camera up (-y of the images) is +Z.
   int undistort_max_image_size = 0;     // Longest side of dense/ images; 0 keeps the ingested size.
   int seed = 0;                         // COLMAP's random seed (runs still vary slightly with threads).
@@ -79,8 +81,21 @@ struct SfmOptions {
            "has an EXIF focal length, else mapping.")
         .Choices({"auto", "mapping", "final", "never"});
     t->Add("refine_principal_point", &refine_principal_point,
-           "Let bundle adjustment refine the principal point (unstable with few photos).");
+           "Refine the principal point in a final bundle adjustment (mapping keeps it at the image centre, where "
+           "it is unstable): auto refines it when one camera is shared by at least 10 registered photos, which "
+           "constrain it; never keeps the image centre; always refines every camera's (risky with per-photo "
+           "cameras and few photos).")
+        .Choices({"auto", "never", "always"});
     t->Add("min_registered", &min_registered, "Fewer registered photos than this is an error.").Min(2);
+    t->Add("allow_partial", &allow_partial,
+           "Go on with the largest model when fewer than half of the photos with features register, when they "
+           "split into separate reconstructions, or when independent mapper runs disagree; by default the stage "
+           "stops and says which photos failed and why. Set it to relight what did register.");
+    t->Add("max_mapper_runs", &max_mapper_runs,
+           "Incremental mapping is repeated from different first pairs until two runs place the cameras the same "
+           "way (a wrong reconstruction can look normal); at most this many runs. 1 skips the check (saves time "
+           "on large collections).")
+        .Range(1, 16);
     t->Add("align_up", &align_up,
            "Rotate the COLMAP frame so the mean camera up (-y of the images) is +Z (colmap and model modes).");
     t->Add("undistort_max_image_size", &undistort_max_image_size,

@@ -121,6 +121,11 @@ TEST(SfmColmap, TempleSparseRing) {
   }
   EXPECT_GT(summary.mean_reprojection_error_px, 0.05);
   EXPECT_LT(summary.mean_reprojection_error_px, 1.0);
+  // Two mapper runs from different first pairs agree, and the photo pairs' own matches agree with the model.
+  EXPECT_EQ(summary.consensus, "agreed");
+  ASSERT_GE(summary.mapper_runs.size(), 2u);
+  const SfmMapperRun& kept = summary.mapper_runs[summary.chosen_run];
+  EXPECT_GE(kept.pairs_agreeing, 0.9 * kept.pairs_checked);
 
   // Outputs: binary and text models agree; dense workspace has every registered photo.
   const Reconstruction model = Reconstruction::ReadBinary(dir / "sfm/sparse");
@@ -190,6 +195,11 @@ TEST(SfmGroundTruth, CopiesTheCamerasAndBuildsTheDenseWorkspace) {
   const CameraErrors e = CompareCameras(model, truth);
   EXPECT_LT(e.median_rotation_deg, 1e-6);
   EXPECT_LT(e.median_center_error_relative, 1e-6);
+  // The given cameras come without points: features matched along the known epipolar lines are triangulated
+  // with the cameras held fixed (measured: 4 photos of 320 px give a few hundred points at about 0.5 px).
+  EXPECT_GT(model.points3d.size(), 50u);
+  EXPECT_LT(model.MeanReprojectionError(), 1.5);
+  EXPECT_EQ(Reconstruction::Read(dir / "sfm/dense/sparse").points3d.size(), model.points3d.size());
   EXPECT_TRUE(fs::exists(dir / "sfm/dense/images/templeSR0002.png"));
   EXPECT_TRUE(fs::exists(dir / "sfm/sparse_txt/images.txt"));
 
@@ -236,8 +246,49 @@ TEST(SfmErrors, NothingRegistered) {
   fs::create_directories(dir / "sfm");
   const std::string message = ErrorOf([&] { RunSfm(SfmOptions(), dir / "ingest", dir / "sfm"); });
   EXPECT_NE(message.find("nothing registered"), std::string::npos) << message;
-  // What was computed is kept for inspection.
+  // The message names each photo with its features and partners, and says what to change.
+  EXPECT_NE(message.find("noise2.png: "), std::string::npos) << message;
+  EXPECT_NE(message.find("What to change"), std::string::npos) << message;
+  // What was computed is kept for inspection, and the summary says why the stage stopped.
   EXPECT_TRUE(fs::exists(dir / "sfm/colmap/database.db"));
+  const Json j = ReadJsonFile(dir / "sfm/sfm_summary.json");
+  EXPECT_NE(j.value("failure", "").find("nothing registered"), std::string::npos);
+}
+
+// Fewer than half of the photos with features register: the stage stops by default, naming the photos, and
+// goes on with sfm.allow_partial.
+TEST(SfmErrors, PartialRegistrationStopsUnlessAllowed) {
+  ASSERT_TRUE(testing::HasSharedData(kTemple));
+  testing::TempDir dir;
+  fs::create_directories(dir / "photos");
+  for (int i = 1; i <= 10; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "templeSR%04d.png", i);
+    fs::copy_file(TempleDir() + "/" + name, dir / (std::string("photos/") + name));
+  }
+  for (int i = 0; i < 12; ++i) {
+    WriteImage(dir / ("photos/zz_noise" + std::to_string(i) + ".png"), NoiseImage(200, 150, 10 + i));
+  }
+  Ingest(dir / "photos", dir / "ingest");
+  fs::create_directories(dir / "sfm");
+  const std::string message = ErrorOf([&] { RunSfm(SfmOptions(), dir / "ingest", dir / "sfm"); });
+  EXPECT_NE(message.find("not reliable"), std::string::npos) << message;
+  EXPECT_NE(message.find("of the 22 photos with features registered"), std::string::npos) << message;
+  EXPECT_NE(message.find("zz_noise3.png"), std::string::npos) << message;
+  EXPECT_NE(message.find("sfm.allow_partial"), std::string::npos) << message;
+  SfmOptions allow;
+  allow.allow_partial = true;
+  fs::create_directories(dir / "sfm_partial");
+  const SfmSummary summary = RunSfm(allow, dir / "ingest", dir / "sfm_partial");
+  // Some of the ten temple photos (per-photo cameras here, as the sizes differ: measured 7).
+  EXPECT_GE(summary.num_registered, 3);
+  EXPECT_LE(summary.num_registered, 10);
+  for (const auto& p : summary.photos) {
+    if (p.name.rfind("zz_noise", 0) == 0) {
+      EXPECT_FALSE(p.registered) << p.name;
+      EXPECT_FALSE(p.reason.empty()) << p.name;
+    }
+  }
 }
 
 TEST(SfmErrors, BadOptions) {
