@@ -12,7 +12,9 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/log.h"
+#include "core/path_text.h"
 #include "core/progress.h"
+#include "pipeline/interrupt.h"
 #include "pipeline/runner.h"
 #include "pipeline/stage_graph.h"
 #include "pipeline/subprocess.h"
@@ -47,15 +49,46 @@ ConfigDocument LoadDocument(const CommonArgs& args) {
 }
 
 void PrintTable(const std::vector<StageRecord>& records, std::ostream& out) {
-  out << std::left << std::setw(12) << "stage" << std::setw(10) << "status" << std::setw(10) << "seconds"
+  out << std::left << std::setw(12) << "stage" << std::setw(12) << "status" << std::setw(10) << "seconds"
       << std::setw(18) << "key" << "output / reason\n";
   for (const auto& r : records) {
     std::ostringstream secs;
     secs << std::fixed << std::setprecision(1) << r.seconds;
-    out << std::left << std::setw(12) << r.name << std::setw(10) << r.status << std::setw(10)
+    // One line per stage: a long reason is cut here (it is printed in full below the table).
+    std::string detail = PathText(r.reason.empty() ? r.output_dir : r.reason);
+    if (!r.reason.empty() && detail.size() > 100) detail = detail.substr(0, 97) + "...";
+    out << std::left << std::setw(12) << r.name << std::setw(12) << r.status << std::setw(10)
         << (r.key.empty() ? "-" : secs.str()) << std::setw(18) << (r.key.empty() ? "-" : r.key.substr(0, 16))
-        << (r.reason.empty() ? r.output_dir : r.reason) << "\n";
+        << detail << "\n";
   }
+}
+
+// Quotes an argument for a shell command line when it needs it.
+std::string ShellWord(const std::string& word) {
+  if (!word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-+=.,/:@%") ==
+                           std::string::npos) {
+    return PathText(word);
+  }
+  std::string quoted = "'";
+  for (char c : word) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return PathText(quoted + "'");
+}
+
+// The command that continues an interrupted run: same config, workspace and
+// overrides; --from the interrupted stage when it had an earlier result (a
+// rerun), else nothing (the stage resumes in its folder); --until/--only kept.
+std::string ResumeCommand(const CommonArgs& args, const RunRequest& request, const StageRecord* interrupted,
+                          bool report_only) {
+  std::string cmd = std::string("pipeline ") + (report_only ? "report " : "run ") + ShellWord(args.config);
+  if (!args.workspace.empty()) cmd += " --workspace " + ShellWord(args.workspace);
+  for (const auto& s : args.sets) cmd += " --set " + ShellWord(s);
+  if (interrupted != nullptr && fs::exists(JoinPath(interrupted->output_dir, "status.json")) &&
+      request.only.empty()) {
+    cmd += " --from " + interrupted->name;
+  }
+  if (!request.only.empty()) cmd += " --only " + request.only;
+  if (!request.until.empty()) cmd += " --until " + request.until;
+  return cmd;
 }
 
 int CmdRun(const CommonArgs& args, const RunRequest& request, bool report_only) {
@@ -63,14 +96,29 @@ int CmdRun(const CommonArgs& args, const RunRequest& request, bool report_only) 
   const std::string workspace = ResolveWorkspace(args, config);
   WorkspaceLock lock(workspace);
   InitLogging("pipeline", JoinPath(workspace, "pipeline.log"), LogLevel::kInfo);
+  InstallInterruptHandler();
   RLOG_INFO("config {}, workspace {}", config.document().path(), workspace);
   Runner runner(AllStages(), config, workspace, ExecutableDir());
   const auto records = runner.Run(request);
   std::cerr << "\n";
   PrintTable(records, std::cerr);
+  if (const int sig = InterruptSignal()) {
+    const StageRecord* stage = nullptr;
+    for (const auto& r : records)
+      if (r.status == "interrupted") stage = &r;
+    const std::string what = stage != nullptr ? "stage '" + stage->name + "' was interrupted (" + stage->reason + ")"
+                                              : std::string("the run was interrupted before a stage started");
+    const std::string resume = ResumeCommand(args, request, stage, report_only);
+    RLOG_WARN("{}; finished stages are cached; to resume: {}", what, resume);
+    std::cerr << "pipeline: " << what << "\n"
+              << "pipeline: finished stages are cached; to resume: " << resume << "\n";
+    if (stage != nullptr) std::cerr << "pipeline: log: " << JoinPath(stage->output_dir, "stage.log") << "\n";
+    FlushLogs();
+    return 128 + sig;
+  }
   for (const auto& r : records) {
     if (r.status == "failed") {
-      std::cerr << "pipeline: stage '" << r.name << "' failed: " << r.reason << "\n"
+      std::cerr << "pipeline: stage '" << r.name << "' failed: " << PathText(r.reason) << "\n"
                 << "pipeline: log: " << JoinPath(r.output_dir.empty() ? workspace : r.output_dir, "stage.log")
                 << "\n";
       return 1;
@@ -174,7 +222,7 @@ int Main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return app.exit(e) == 0 ? 0 : kExitUserError;  // --help is 0; CLI11's own codes (106, ...) mean nothing here
   }
   try {
     if (run->parsed()) {
@@ -187,10 +235,10 @@ int Main(int argc, char** argv) {
     if (options->parsed()) return CmdOptions(options_stage, markdown);
     return CmdStages();
   } catch (const UserError& e) {
-    std::cerr << "pipeline: error: " << e.what() << "\n";
+    std::cerr << "pipeline: error: " << PathText(e.what()) << "\n";
     return kExitUserError;
   } catch (const std::exception& e) {
-    std::cerr << "pipeline: internal error (please report it): " << e.what() << "\n";
+    std::cerr << "pipeline: internal error (please report it): " << PathText(e.what()) << "\n";
     return kExitInternalError;
   }
 }

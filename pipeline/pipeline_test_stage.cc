@@ -1,13 +1,16 @@
 // A test stage for the orchestrator tests: sums upstream results, writes one
 // file per item (atomically, skipping items already written: per-item resume)
-// and appends each invocation to $TEST_STAGE_LOG.
+// and appends each invocation to $TEST_STAGE_LOG. $TEST_STAGE_FAIL / $TEST_STAGE_CRASH
+// name a stage that fails with a user error / dies of SIGSEGV after logging a line.
 #include <chrono>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <thread>
 
 #include "core/fs.h"
+#include "core/log.h"
 #include "core/stage.h"
 #include "pipeline/pipeline_test_stage.h"
 
@@ -17,6 +20,11 @@ int main(int argc, char** argv) {
   const StageInfo info{TEST_STAGE_NAME, "test stage", 1};
   return StageMain<TestStageOptions>(argc, argv, info, [](const TestStageOptions& o, const StageContext& ctx) {
     if (const char* log = std::getenv("TEST_STAGE_LOG")) std::ofstream(log, std::ios::app) << TEST_STAGE_NAME << "\n";
+    RLOG_INFO("{} items to compute", o.items);
+    if (std::getenv("TEST_STAGE_CRASH") && std::string(std::getenv("TEST_STAGE_CRASH")) == TEST_STAGE_NAME) {
+      RLOG_INFO("crashing on request of TEST_STAGE_CRASH");
+      std::raise(SIGSEGV);
+    }
     if (std::getenv("TEST_STAGE_FAIL") && std::string(std::getenv("TEST_STAGE_FAIL")) == TEST_STAGE_NAME) {
       RELIGHT_USER_ERROR() << "failing on request of TEST_STAGE_FAIL";
     }
@@ -29,6 +37,7 @@ int main(int argc, char** argv) {
       if (std::filesystem::exists(item)) continue;  // finished by an earlier, killed run
       std::this_thread::sleep_for(std::chrono::milliseconds(o.sleep_ms));
       WriteFileAtomic(item, std::to_string(i));
+      RLOG_INFO("item {} written", i);
       ++computed;
     }
     std::ofstream(ctx.OutputPath("computed.txt"), std::ios::app) << computed << "\n";

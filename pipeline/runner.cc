@@ -11,6 +11,7 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <set>
 
 #include "core/error.h"
@@ -19,6 +20,7 @@
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/timer.h"
+#include "pipeline/interrupt.h"
 #include "pipeline/subprocess.h"
 
 namespace relight::pipeline {
@@ -34,6 +36,11 @@ std::string NowIso() {
 }
 
 std::string ShortKey(const std::string& key) { return key.substr(0, 16); }
+
+// Appends `text` to a log file (created if missing); a lost line is no reason to fail a run.
+void AppendToFile(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::app | std::ios::binary) << text;
+}
 
 // Replaces `link` by a symlink to `target` atomically.
 void UpdateSymlink(const std::string& target, const std::string& link) {
@@ -103,7 +110,7 @@ std::vector<StageRecord> Runner::Plan() {
     }
     std::string text = "stage=" + def.name() + "\nversion=" + std::to_string(def.info.version) + "\n";
     text += config_.options(def.name()).table().CanonicalText(
-        [this](const std::string& path) { return digests_.Digest(path); });
+        [this](const std::string& path, const FileSelection& selection) { return digests_.Digest(path, selection); });
     for (const auto& up : def.upstream) {
       auto it = keys.find(up);
       if (it == keys.end()) continue;
@@ -154,6 +161,7 @@ std::vector<StageRecord> Runner::Run(const RunRequest& request) {
   }
 
   bool failed = false;
+  bool interrupted = false;
   // Stages that produced a result in this run. A cached entry downstream of
   // one was computed from the result it replaced (a forced rerun keeps the key,
   // and stages such as COLMAP's are not deterministic), so it reruns too, or is
@@ -173,6 +181,12 @@ std::vector<StageRecord> Runner::Run(const RunRequest& request) {
     if (failed) {
       r.status = "skipped";
       r.reason = "an earlier stage failed";
+      continue;
+    }
+    if (interrupted || InterruptSignal() != 0) {
+      interrupted = true;
+      r.status = "skipped";
+      r.reason = "not reached: the run was interrupted";
       continue;
     }
     const bool selected = only >= 0 ? i == only : i <= until;
@@ -209,8 +223,14 @@ std::vector<StageRecord> Runner::Run(const RunRequest& request) {
                              << "` first";
       }
     }
+    r.status = "running";  // what summary.json says if `pipeline` itself is killed (kill -9)
+    WriteSummary(records);
     const bool ok = RunOne(&r, done);
     WriteSummary(records);
+    if (r.status == "interrupted") {
+      interrupted = true;
+      continue;
+    }
     if (!ok) {
       failed = true;
       continue;
@@ -228,8 +248,13 @@ bool Runner::RunOne(StageRecord* r, bool replace_existing) {
   // success, so a failed or killed rerun never loses the earlier result.
   const std::string final_dir = r->output_dir;
   const std::string run_dir = replace_existing ? final_dir + ".rerun" : final_dir;
+  const std::string log_path = JoinPath(run_dir, "stage.log");
   std::error_code ec;
-  if (replace_existing) fs::remove_all(run_dir, ec);
+  std::string earlier_log;  // the log of an earlier, unfinished rerun: kept at the top of the new one
+  if (replace_existing) {
+    if (fs::is_regular_file(log_path, ec)) earlier_log = ReadFileToString(log_path);
+    fs::remove_all(run_dir, ec);
+  }
   EnsureDir(run_dir);
   fs::remove(JoinPath(run_dir, "status.json"), ec);
   fs::remove(JoinPath(run_dir, "error.txt"), ec);
@@ -258,9 +283,22 @@ bool Runner::RunOne(StageRecord* r, bool replace_existing) {
 
   RLOG_INFO("{}: running ({})", r->name, ShortKey(r->key));
   const std::string started = NowIso();
+  // The stage appends to its log; a resumed or repeated run shows where each attempt began.
+  AppendToFile(log_path, earlier_log + "==== " + started + " pipeline: " + (earlier_log.empty() ? "" : "new ") +
+                             "run of stage " + r->name + " (key " + ShortKey(r->key) + ") ====\n");
   Timer timer;
   const ProcessResult result = RunProcess(argv);
   r->seconds = timer.Seconds();
+  if (!result.ok() && InterruptSignal() != 0) {
+    r->status = "interrupted";
+    r->reason = std::string("interrupted by SIG") + sigabbrev_np(InterruptSignal()) + " after " +
+                Progress::FormatSeconds(r->seconds) +
+                (replace_existing ? "; the earlier result is kept until a rerun finishes"
+                                  : "; the next run resumes it in the same folder");
+    AppendToFile(log_path, "==== " + NowIso() + " pipeline: " + r->reason + " ====\n");
+    RLOG_WARN("{}: {}", r->name, r->reason);
+    return false;
+  }
   if (!result.ok()) {
     r->status = "failed";
     std::string reason;
@@ -269,10 +307,15 @@ bool Runner::RunOne(StageRecord* r, bool replace_existing) {
       while (!reason.empty() && (reason.back() == '\n' || reason.back() == '\r')) reason.pop_back();
     } catch (const UserError&) {
     }
-    if (reason.empty()) reason = result.Describe();
+    if (reason.empty()) {
+      reason = result.Describe();  // crashed or killed: the stage wrote no reason
+      RLOG_ERROR("stage '{}' failed: {}; log: {}", r->name, reason, log_path);
+    } else {
+      // The stage printed its reason itself; the console gets it once more at the end of the run.
+      RLOG_ERROR("stage '{}' failed ({}); log: {}", r->name, result.Describe(), log_path);
+      LogFileOnly("stage '" + r->name + "' failed: " + reason);
+    }
     r->reason = reason;
-    RLOG_ERROR("stage '{}' failed ({}): {}", r->name, result.Describe(), reason);
-    RLOG_ERROR("log: {}", JoinPath(run_dir, "stage.log"));
     return false;
   }
   OrderedJson status;

@@ -37,7 +37,9 @@ struct RunRequest {
 struct StageRecord {
   std::string name;
   std::string key;         // empty when skipped
-  std::string status;      // done | cached | failed | skipped  (plan: cached | missing | skipped)
+  // done | cached | failed | interrupted | skipped | stale (plan: cached | missing | skipped);
+  // `running` in a summary.json written while the stage runs.
+  std::string status;
   double seconds = 0;      // wall time of this run (0 when cached), or of the cached run for `status`
   std::string output_dir;  // absolute
   std::string reason;      // why skipped or failed
@@ -55,6 +57,8 @@ class Runner {
   std::vector<StageRecord> Plan();
   // Runs the graph; returns the records (also written to summary.json). Throws
   // UserError for bad requests (unknown stage names, missing upstream results).
+  // After a SIGINT/SIGTERM/SIGHUP (pipeline/interrupt.h) the running stage is
+  // recorded as `interrupted`, later ones as skipped, and nothing else runs.
   std::vector<StageRecord> Run(const RunRequest& request);
   // Removes cache entries: all of them, or all but those the current config uses.
   // Returns the number of entries removed.

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -14,6 +15,7 @@
 #include "core/fs.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "pipeline/interrupt.h"
 #include "pipeline/pipeline_test_stage.h"
 #include "testing/testing.h"
 
@@ -193,6 +195,102 @@ TEST_F(RunnerTest, KilledStageResumesPerItemAndKeepsFinishedStages) {
   for (int i = 0; i < 40; ++i) EXPECT_TRUE(fs::exists(beta_dir + "/item_" + std::to_string(i) + ".txt"));
 }
 
+// Waits (up to 20 s) until a file named `name` exists below the workspace's cache/<stage>.
+bool WaitForItem(const std::string& cache, const std::string& stage, const std::string& name) {
+  for (int tries = 0; tries < 4000; ++tries) {
+    std::error_code ec;
+    fs::recursive_directory_iterator it(cache + "/" + stage, fs::directory_options::skip_permission_denied, ec);
+    for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (it->path().filename() == name) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return false;
+}
+
+TEST_F(RunnerTest, InterruptedStageIsRecordedKeepsItsLogAndTheRerunResumes) {
+  InstallInterruptHandler();
+  const std::string slow = base_ + "beta.items: 40\nbeta.sleep_ms: 50\n";
+  fs::create_directories(dir_ / "ws/cache");
+  std::thread ctrl_c([&] {
+    if (WaitForItem(dir_ / "ws/cache", "beta", "item_3.txt")) ::kill(::getpid(), SIGINT);  // as Ctrl-C would
+  });
+  auto interrupted = Run(slow);
+  ctrl_c.join();
+  ASSERT_EQ(InterruptSignal(), SIGINT);
+  ClearInterrupt();
+  EXPECT_EQ(Statuses(interrupted), "alpha:done beta:interrupted gamma:skipped delta:skipped ");
+  const StageRecord& beta = Find(interrupted, "beta");
+  EXPECT_EQ(beta.reason.rfind("interrupted by SIGINT after ", 0), 0u) << beta.reason;
+  EXPECT_NE(beta.reason.find("; the next run resumes it in the same folder"), std::string::npos) << beta.reason;
+  EXPECT_EQ(Find(interrupted, "gamma").reason, "not reached: the run was interrupted");
+  // summary.json says so (it said `cached` before), and nothing of beta counts as done.
+  const Json summary = ReadJsonFile(dir_ / "ws/summary.json");
+  EXPECT_EQ(summary["stages"][1]["status"], "interrupted");
+  EXPECT_EQ(summary["stages"][1]["reason"], beta.reason);
+  EXPECT_FALSE(fs::exists(beta.output_dir + "/status.json"));
+  const std::string first_log = ReadFileToString(beta.output_dir + "/stage.log");
+  EXPECT_NE(first_log.find("item 3 written"), std::string::npos) << first_log;
+  EXPECT_NE(first_log.find("pipeline: " + beta.reason + " ===="), std::string::npos) << first_log;
+  Invocations();
+
+  auto resumed = Run(slow);
+  EXPECT_EQ(Statuses(resumed), "alpha:cached beta:done gamma:done delta:done ");
+  int computed_now = -1;
+  std::ifstream(beta.output_dir + "/computed.txt") >> computed_now;  // the interrupted run wrote none
+  EXPECT_GT(computed_now, 0);
+  EXPECT_LE(computed_now, 36);  // items 0-3 were kept
+  // The resumed run appended to the log: the interrupted run's lines are still there.
+  const std::string log = ReadFileToString(beta.output_dir + "/stage.log");
+  EXPECT_EQ(log.rfind(first_log, 0), 0u);
+  EXPECT_NE(log.find("item 39 written"), std::string::npos);
+}
+
+TEST_F(RunnerTest, InterruptedForcedRerunKeepsTheOldResultAndBothLogs) {
+  auto first = Run(base_ + "beta.items: 40\n");
+  const std::string beta_dir = Find(first, "beta").output_dir;
+  const std::string old_log = ReadFileToString(beta_dir + "/stage.log");
+  InstallInterruptHandler();
+  RunRequest force;
+  force.force = {"beta"};
+  std::thread ctrl_c([&] {  // SIGTERM once the rerun (beside the finished entry) has written three items
+    for (int i = 0; i < 4000 && !fs::exists(beta_dir + ".rerun/item_2.txt"); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ::kill(::getpid(), SIGTERM);
+  });
+  auto interrupted = Run(base_ + "beta.items: 40\nbeta.sleep_ms: 50\n", force);
+  ctrl_c.join();
+  ClearInterrupt();
+  EXPECT_EQ(Find(interrupted, "beta").status, "interrupted");
+  EXPECT_NE(Find(interrupted, "beta").reason.find("SIGTERM"), std::string::npos);
+  EXPECT_NE(Find(interrupted, "beta").reason.find("the earlier result is kept"), std::string::npos);
+  // The finished result and its log are untouched.
+  EXPECT_TRUE(Runner::IsDone(beta_dir, Find(first, "beta").key));
+  EXPECT_EQ(ReadFileToString(beta_dir + "/result.txt"), "11");
+  EXPECT_EQ(ReadFileToString(beta_dir + "/stage.log"), old_log);
+  const std::string interrupted_log = ReadFileToString(beta_dir + ".rerun/stage.log");
+  EXPECT_NE(interrupted_log.find("item 2 written"), std::string::npos) << interrupted_log;
+  // A second forced rerun starts afresh but keeps the interrupted attempt's log at the top.
+  auto rerun = Run(base_ + "beta.items: 40\n", force);
+  EXPECT_EQ(Find(rerun, "beta").status, "done");
+  const std::string log = ReadFileToString(beta_dir + "/stage.log");
+  EXPECT_EQ(log.rfind(interrupted_log, 0), 0u) << log;
+  EXPECT_NE(log.find("pipeline: new run of stage beta"), std::string::npos) << log;
+}
+
+TEST_F(RunnerTest, CrashedStageKeepsWhatItLoggedAndSaysHowItDied) {
+  setenv("TEST_STAGE_CRASH", "gamma", 1);
+  auto crashed = Run(base_);
+  unsetenv("TEST_STAGE_CRASH");
+  const StageRecord& gamma = Find(crashed, "gamma");
+  EXPECT_EQ(gamma.status, "failed");
+  EXPECT_EQ(gamma.reason, "killed by signal 11 (Segmentation fault)");  // once: it was doubled in the console line
+  const std::string log = ReadFileToString(gamma.output_dir + "/stage.log");
+  EXPECT_NE(log.find("crashing on request of TEST_STAGE_CRASH"), std::string::npos) << log;
+  EXPECT_NE(log.find("gamma: error: crashed with signal 11 (Segmentation fault); backtrace:"), std::string::npos)
+      << log;
+}
+
 TEST_F(RunnerTest, FailureNamesReasonAndKeepsEarlierResults) {
   auto failed = Run(base_ + "gamma.fail: true\n");
   EXPECT_EQ(Find(failed, "gamma").status, "failed");
@@ -260,13 +358,13 @@ TEST_F(RunnerTest, FromOnlyUntil) {
 
 TEST_F(RunnerTest, UnknownKeysAndBadValuesFailBeforeRunning) {
   try {
-    Run(base_ + "beta:\n  valeu: 3\n");
+    Run(base_ + "delta:\n  note: x\n  valeu: 3\n");
     FAIL();
   } catch (const UserError& e) {
-    EXPECT_NE(std::string(e.what()).find("config.yaml:9"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("beta.valeu"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("config.yaml:10"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("delta.valeu"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(Run(base_ + "beta:\n  items: -1\n"), UserError);
+  EXPECT_THROW(Run(base_ + "beta.items: -1\n"), UserError);
   EXPECT_THROW(Run(base_ + "epsilon:\n  value: 1\n"), UserError);
   EXPECT_EQ(Invocations(), "");
 }

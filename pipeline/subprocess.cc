@@ -8,8 +8,10 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <initializer_list>
 
 #include "core/error.h"
+#include "pipeline/interrupt.h"
 
 namespace relight::pipeline {
 
@@ -32,14 +34,22 @@ ProcessResult RunProcess(const std::vector<std::string>& argv) {
   if (pid < 0) RELIGHT_USER_ERROR() << "cannot start '" << argv[0] << "': " << std::strerror(errno);
   if (pid == 0) {
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    // A stage must die of the interrupts the orchestrator passes on, even when
+    // `pipeline` was started with them ignored (`cmd &` in a script ignores SIGINT).
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::signal(sig, SIG_DFL);
     if (::getppid() != parent) ::_exit(127);  // the parent died before prctl
     ::execv(args[0], args.data());
     ::_exit(127);
   }
+  SetInterruptTarget(pid);
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) RELIGHT_USER_ERROR() << "waiting for '" << argv[0] << "' failed: " << std::strerror(errno);
+    if (errno != EINTR) {
+      SetInterruptTarget(0);
+      RELIGHT_USER_ERROR() << "waiting for '" << argv[0] << "' failed: " << std::strerror(errno);
+    }
   }
+  SetInterruptTarget(0);
   ProcessResult result;
   if (WIFSIGNALED(status)) {
     result.signaled = true;

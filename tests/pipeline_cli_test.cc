@@ -26,7 +26,7 @@ class PipelineCliTest : public ::testing::Test {
   void WriteConfig(const std::string& yaml) { std::ofstream(dir_ / "config.yaml") << yaml; }
   void AddPhotos(int n) {
     for (int i = 0; i < n; ++i) {
-      Image img(64, 48, 3);
+      Image img(80, 64, 3);
       for (size_t p = 0; p < img.pixels.size(); ++p) img.pixels[p] = static_cast<float>((p * (7 + i)) % 251) / 250.0f;
       WriteImage(dir_ / ("photos/p" + std::to_string(i) + ".jpg"), img);
     }
@@ -66,7 +66,7 @@ TEST_F(PipelineCliTest, EmptyFolderAndMissingFolder) {
   WriteConfig("ingest:\n  images: photos\n");
   std::string out;
   EXPECT_EQ(Pipeline("run " + (dir_ / "config.yaml") + " --workspace " + (dir_ / "ws"), &out), 1);
-  EXPECT_NE(out.find("contains no files"), std::string::npos) << out;
+  EXPECT_NE(out.find("contains no photos"), std::string::npos) << out;
   WriteConfig("ingest:\n  images: nowhere\n");
   EXPECT_EQ(Pipeline("run " + (dir_ / "config.yaml") + " --workspace " + (dir_ / "ws"), &out), 2);
   EXPECT_NE(out.find("nowhere"), std::string::npos) << out;
@@ -107,6 +107,106 @@ TEST_F(PipelineCliTest, SecondRunIsCachedAndStatusAndCleanWork) {
   EXPECT_NE(out.find("removed 1 cache entry"), std::string::npos) << out;
   ASSERT_EQ(Pipeline("status " + (dir_ / "config.yaml") + ws, &out), 0);
   EXPECT_NE(out.find("ingest      cached"), std::string::npos) << out;
+}
+
+TEST_F(PipelineCliTest, NonUtf8PhotoNamesAreTextInLogsJsonAndStatus) {
+  AddPhotos(3);
+  fs::rename(dir_ / "photos/p0.jpg", dir_ / "photos/Sacr\xe9 C\x9cur.jpg");  // a Latin-1 name
+  std::ofstream(dir_ / "photos/d\xe9" "faut.jpg") << "broken";              // and a stage message quoting one
+  WriteConfig("ingest:\n  images: photos\n");
+  const std::string ws = " --workspace " + (dir_ / "ws");
+  std::string out;
+  // Before: "internal error (please report it): [json.exception.type_error.316] invalid UTF-8 byte", exit 3.
+  ASSERT_EQ(Pipeline("run " + (dir_ / "config.yaml") + ws + " --until ingest", &out), 0) << out;
+  EXPECT_NE(out.find("skipped '" + (dir_ / "photos/d\\xE9faut.jpg") + "'"), std::string::npos) << out;
+  const Json manifest = ReadJsonFile(dir_ / "ws/stages/ingest/manifest.json");
+  EXPECT_EQ(manifest["photos"][0]["name"], "Sacr\\xE9 C\\x9Cur.jpg");
+  EXPECT_EQ(StageEntry(ReadJsonFile(dir_ / "ws/summary.json"), "ingest")["status"], "done");
+  ASSERT_EQ(Pipeline("status " + (dir_ / "config.yaml") + ws, &out), 0) << out;
+  EXPECT_NE(out.find("ingest      cached"), std::string::npos) << out;
+  // A failing stage whose reason quotes such a name: exit 1, and summary.json is written.
+  fs::remove(dir_ / "photos/p1.jpg");
+  fs::remove(dir_ / "photos/p2.jpg");
+  EXPECT_EQ(Pipeline("run " + (dir_ / "config.yaml") + ws + " --until ingest", &out), 1) << out;
+  EXPECT_NE(out.find("d\\xE9faut.jpg"), std::string::npos) << out;
+  const Json summary = ReadJsonFile(dir_ / "ws/summary.json");
+  EXPECT_EQ(StageEntry(summary, "ingest")["status"], "failed");
+  EXPECT_NE(StageEntry(summary, "ingest")["reason"].get<std::string>().find("only 1 usable photo(s)"),
+            std::string::npos);
+}
+
+TEST_F(PipelineCliTest, FilesIngestDoesNotReadLeaveTheKeyAlone) {
+  AddPhotos(3);
+  WriteConfig("ingest:\n  images: photos\n");
+  const std::string ws = " --workspace " + (dir_ / "ws");
+  std::string out;
+  ASSERT_EQ(Pipeline("run " + (dir_ / "config.yaml") + ws + " --until ingest", &out), 0) << out;
+  fs::create_directories(dir_ / "photos/sub");
+  std::ofstream(dir_ / "photos/notes.txt") << "where I took them";
+  std::ofstream(dir_ / "photos/Thumbs.db") << "thumbnails";
+  fs::copy_file(dir_ / "photos/p0.jpg", dir_ / "photos/sub/extra.jpg");  // not read: ingest.recursive is false
+  ASSERT_EQ(Pipeline("status " + (dir_ / "config.yaml") + ws, &out), 0) << out;
+  EXPECT_NE(out.find("ingest      cached"), std::string::npos) << out;
+  ASSERT_EQ(Pipeline("status " + (dir_ / "config.yaml") + ws + " --set ingest.recursive=true", &out), 0) << out;
+  EXPECT_NE(out.find("ingest      missing"), std::string::npos) << out;
+  // The root folder: listed without descending (was "Permission denied [/proc/...]", exit 3).
+  WriteConfig("ingest:\n  images: /\n");
+  const int rc = Pipeline("run " + (dir_ / "config.yaml") + ws + " --until ingest", &out);
+  EXPECT_EQ(rc, 1) << out;
+  EXPECT_NE(out.find("photo folder '/' contains no photos"), std::string::npos) << out;
+}
+
+TEST_F(PipelineCliTest, MisleadingMessagesOfIssue34) {
+  AddPhotos(3);
+  std::string out;
+  // ingest.images naming a file said "photo folder ... does not exist".
+  WriteConfig("ingest:\n  images: photos/p0.jpg\n");
+  EXPECT_EQ(Pipeline("status " + (dir_ / "config.yaml"), &out), 2) << out;
+  EXPECT_NE(out.find("pipeline: error: ingest.images: '" + (dir_ / "photos/p0.jpg") +
+                     "' is a file, not a folder; set it to the folder that holds the files"),
+            std::string::npos)
+      << out;
+  // A folder in relight.envmaps said "install Debian's blender-data".
+  fs::create_directories(dir_ / "maps");
+  WriteConfig("ingest:\n  images: photos\nrelight:\n  envmaps: [maps]\n");
+  EXPECT_EQ(Pipeline("status " + (dir_ / "config.yaml"), &out), 2) << out;
+  EXPECT_NE(out.find("relight.envmaps: '" + (dir_ / "maps") + "' is a folder, not a file"), std::string::npos) << out;
+  // `foo: 3` at the top level said "must be a mapping".
+  WriteConfig("ingest:\n  images: photos\nfoo: 3\n");
+  EXPECT_EQ(Pipeline("status " + (dir_ / "config.yaml"), &out), 2) << out;
+  EXPECT_NE(out.find("config.yaml:3: unknown section 'foo'; allowed sections: "), std::string::npos) << out;
+  // A second `mesh:` section was merged silently.
+  WriteConfig("ingest:\n  images: photos\nmesh:\n  target_vertices: 1000\nmesh:\n  remesh_iterations: 2\n");
+  EXPECT_EQ(Pipeline("status " + (dir_ / "config.yaml"), &out), 2) << out;
+  EXPECT_NE(out.find("config.yaml:5: section 'mesh' appears twice in this file (first at "), std::string::npos) << out;
+  // A missing CONFIG argument exited 106 (CLI11's own code).
+  EXPECT_EQ(Pipeline("run", &out), 2) << out;
+  EXPECT_NE(out.find("CONFIG is required"), std::string::npos) << out;
+  EXPECT_EQ(Pipeline("status --workspace x", &out), 2) << out;
+}
+
+TEST_F(PipelineCliTest, CtrlCSaysWhatWasInterruptedAndHowToResume) {
+  WriteConfig("synthesize:\n  num_photos: 400\n");  // minutes of rendering: interrupted long before the end
+  const std::string ws = dir_ / "ws";
+  const std::string script = "cd " + dir_.path() + " && (" + testing::BinDir() + "/pipeline run config.yaml --workspace " +
+                             ws + " & p=$!; i=0; while ! ls " + ws +
+                             "/cache/synthesize/*/stage.log >/dev/null 2>&1 && [ $i -lt 600 ]; do sleep 0.1; "
+                             "i=$((i+1)); done; sleep 1; kill -INT $p; wait $p; echo \"exit=$?\")";
+  std::string out;
+  testing::RunCommand("sh -c '" + script + "'", &out);
+  EXPECT_NE(out.find("exit=130"), std::string::npos) << out;  // was 130 with no message and no summary
+  EXPECT_NE(out.find("pipeline: stage 'synthesize' was interrupted (interrupted by SIGINT after "), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("pipeline: finished stages are cached; to resume: pipeline run config.yaml --workspace " + ws),
+            std::string::npos)
+      << out;
+  const Json summary = ReadJsonFile(ws + "/summary.json");
+  EXPECT_EQ(StageEntry(summary, "synthesize")["status"], "interrupted");
+  EXPECT_EQ(StageEntry(summary, "ingest")["status"], "skipped");
+  // pipeline.log keeps the run's lines (they were lost in its buffer).
+  const std::string log = ReadFileToString(ws + "/pipeline.log");
+  EXPECT_NE(log.find("synthesize: running"), std::string::npos) << log;
+  EXPECT_NE(log.find("to resume: pipeline run config.yaml"), std::string::npos) << log;
 }
 
 TEST_F(PipelineCliTest, StagesAndOptionsAreListed) {

@@ -14,6 +14,8 @@ packages=(
   colmap gnuplot-nox blender-data
   # headless browser for the report test
   chromium
+  # libFuzzer and the sanitizers for the parser fuzz targets (fuzz/)
+  clang libclang-rt-14-dev
 )
 
 missing=()

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 
 #include "core/error.h"
 
@@ -54,6 +55,22 @@ void ConfigDocument::LoadFile(const std::string& file, int depth) {
     }
     LoadFile(base_path.string(), depth + 1);
   }
+  // YAML parsers keep the last of two equal keys; in a config that silently
+  // drops half of a section, so a repeated section or option is an error.
+  std::map<std::string, std::string> sections_here, options_here;  // name -> where first seen in this file
+  auto first_time = [](std::map<std::string, std::string>* seen, const std::string& name, const std::string& where) {
+    auto [it, inserted] = seen->emplace(name, where);
+    return inserted ? std::string() : it->second;
+  };
+  auto add_entry = [&](const std::string& section, const std::string& field, const std::string& where,
+                       const YAML::Node& value) {
+    const std::string earlier = first_time(&options_here, section + "." + field, where);
+    if (!earlier.empty()) {
+      RELIGHT_USER_ERROR() << where << ": option '" << section << "." << field << "' is set twice in this file (first at "
+                           << earlier << "); keep one of them";
+    }
+    sections_[section].push_back(ConfigEntry{field, where, value, file, base_dir});
+  };
   for (const auto& kv : root) {
     const std::string key = kv.first.Scalar();
     if (key == "base") continue;
@@ -62,20 +79,31 @@ void ConfigDocument::LoadFile(const std::string& file, int depth) {
     if (dot != std::string::npos) {  // flat form `section.field: value`
       const std::string section = key.substr(0, dot);
       section_where_.emplace(section, where);
-      sections_[section].push_back(ConfigEntry{key.substr(dot + 1), where, kv.second, file, base_dir});
+      add_entry(section, key.substr(dot + 1), where, kv.second);
       continue;
     }
+    const std::string earlier = first_time(&sections_here, key, where);
+    if (!earlier.empty()) {
+      RELIGHT_USER_ERROR() << where << ": section '" << key << "' appears twice in this file (first at " << earlier
+                           << "); merge the two into one";
+    }
     section_where_.emplace(key, where);
-    auto& entries = sections_[key];  // an empty section still counts as present
+    sections_[key];  // an empty section still counts as present
     if (kv.second.IsNull()) continue;
     if (!kv.second.IsMap()) {
-      RELIGHT_USER_ERROR() << where << ": section '" << key << "' must be a mapping of option: value (or write '"
-                           << key << ".OPTION: value')";
+      // Reported by CheckSections (after unknown section names) or Apply.
+      malformed_.emplace(key, where);
+      continue;
     }
-    for (const auto& field : kv.second) {
-      entries.push_back(ConfigEntry{field.first.Scalar(), Where(field.first, file), field.second, file, base_dir});
-    }
+    for (const auto& field : kv.second) add_entry(key, field.first.Scalar(), Where(field.first, file), field.second);
   }
+}
+
+void ConfigDocument::CheckMapping(const std::string& section) const {
+  auto it = malformed_.find(section);
+  if (it == malformed_.end()) return;
+  RELIGHT_USER_ERROR() << it->second << ": section '" << section << "' must be a mapping of option: value (or write '"
+                       << section << ".OPTION: value')";
 }
 
 std::string ConfigDocument::stem() const { return path_.empty() ? "default" : fs::path(path_).stem().string(); }
@@ -94,6 +122,7 @@ void ConfigDocument::CheckSections(const std::vector<std::string>& known) const 
     RELIGHT_USER_ERROR() << section_where_.at(name) << ": unknown section '" << name
                          << "'; allowed sections: " << allowed;
   }
+  for (const auto& [name, where] : malformed_) CheckMapping(name);
   for (const auto& [key, value] : overrides_) {
     const std::string section = key.substr(0, key.find('.'));
     if (std::find(known.begin(), known.end(), section) == known.end()) {
@@ -104,6 +133,7 @@ void ConfigDocument::CheckSections(const std::vector<std::string>& known) const 
 }
 
 void ConfigDocument::Apply(OptionTable* table) const {
+  CheckMapping(table->section());
   auto it = sections_.find(table->section());
   if (it != sections_.end()) {
     for (const ConfigEntry& e : it->second) table->ApplyEntry(e.field, e.where, e.value, e.file, e.base_dir);

@@ -5,6 +5,7 @@
 //     num_photos: 16
 // A top-level `base: other.yaml` loads that file first (paths in each file are
 // relative to the file that names them); later entries override earlier ones.
+// Within one file a section or an option may appear only once.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -48,10 +49,13 @@ class ConfigDocument {
 
  private:
   void LoadFile(const std::string& path, int depth);
+  // Throws UserError naming the file and line when `section` is not a mapping.
+  void CheckMapping(const std::string& section) const;
 
   std::string path_;
   std::map<std::string, std::vector<ConfigEntry>> sections_;
   std::map<std::string, std::string> section_where_;  // first mention of each section, for errors
+  std::map<std::string, std::string> malformed_;      // sections whose value is not a mapping -> where
   std::vector<std::pair<std::string, std::string>> overrides_;
 };
 

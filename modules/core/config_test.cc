@@ -75,5 +75,39 @@ TEST(ConfigTest, SyntaxErrorAndMissingFile) {
   EXPECT_THROW(ConfigDocument::Load(dir / "list.yaml"), UserError);
 }
 
+using testing::ErrorOf;
+
+TEST(ConfigTest, ScalarAtTopLevelIsAnUnknownSectionNotAMappingError) {
+  testing::TempDir dir;
+  Write(dir / "c.yaml", "a:\n  n: 1\nfoo: 3\n");
+  const ConfigDocument doc = ConfigDocument::Load(dir / "c.yaml");  // threw "must be a mapping" before
+  EXPECT_EQ(ErrorOf([&] { doc.CheckSections({"a"}); }), dir / "c.yaml:3: unknown section 'foo'; allowed sections: a");
+  // A known section with a scalar value is still "must be a mapping", with its line.
+  Write(dir / "d.yaml", "a: 3\n");
+  const ConfigDocument known = ConfigDocument::Load(dir / "d.yaml");
+  EXPECT_EQ(ErrorOf([&] { known.CheckSections({"a"}); }),
+            dir / "d.yaml:1: section 'a' must be a mapping of option: value (or write 'a.OPTION: value')");
+  StageAOptions o;
+  OptionTable t = MakeOptionTable("a", &o);
+  EXPECT_NE(ErrorOf([&] { known.Apply(&t); }).find("d.yaml:1: section 'a' must be a mapping"), std::string::npos);
+}
+
+TEST(ConfigTest, RepeatedSectionOrOptionInOneFileIsAnError) {
+  testing::TempDir dir;
+  Write(dir / "c.yaml", "a:\n  n: 1\nb:\n  x: 1\na:\n  photos: p\n");
+  EXPECT_EQ(ErrorOf([&] { ConfigDocument::Load(dir / "c.yaml"); }),
+            dir / "c.yaml:5: section 'a' appears twice in this file (first at " + dir / "c.yaml:1); merge the two into one");
+  Write(dir / "d.yaml", "a:\n  n: 1\na.n: 2\n");
+  EXPECT_EQ(ErrorOf([&] { ConfigDocument::Load(dir / "d.yaml"); }),
+            dir / "d.yaml:3: option 'a.n' is set twice in this file (first at " + dir / "d.yaml:2); keep one of them");
+  // Across a base chain a later file overrides an earlier one, as documented.
+  Write(dir / "base.yaml", "a:\n  n: 1\n");
+  Write(dir / "top.yaml", "base: base.yaml\na:\n  n: 2\n");
+  StageAOptions o;
+  OptionTable t = MakeOptionTable("a", &o);
+  ConfigDocument::Load(dir / "top.yaml").Apply(&t);
+  EXPECT_EQ(o.n, 2);
+}
+
 }  // namespace
 }  // namespace relight

@@ -3,7 +3,9 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -134,5 +136,50 @@ unsigned long long FreeBytes(const std::string& path) {
 }
 
 std::string JoinPath(const std::string& a, const std::string& b) { return (fs::path(a) / b).string(); }
+
+std::vector<std::string> ListFiles(const std::string& dir, const FileSelection& selection) {
+  auto selected = [&](const fs::directory_entry& e) {
+    std::error_code ec;
+    if (!e.is_regular_file(ec)) return false;  // includes entries that vanished or cannot be stat'ed
+    if (selection.extensions.empty()) return true;
+    std::string ext = e.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    return std::find(selection.extensions.begin(), selection.extensions.end(), ext) != selection.extensions.end();
+  };
+  auto fail = [&](const std::error_code& ec) {
+    RELIGHT_USER_ERROR() << "cannot list folder '" << dir << "': " << ec.message()
+                         << "; check that it exists and is readable";
+  };
+  std::vector<std::string> files;
+  std::error_code ec;
+  const auto options = fs::directory_options::skip_permission_denied;
+  if (selection.recursive) {
+    fs::recursive_directory_iterator it(dir, options, ec), end;
+    if (ec) fail(ec);
+    for (; it != end; it.increment(ec)) {
+      if (ec) fail(ec);
+      const std::string name = it->path().filename().string();
+      if (!name.empty() && name[0] == '.') {
+        std::error_code dir_ec;
+        if (it->is_directory(dir_ec)) it.disable_recursion_pending();
+        continue;
+      }
+      if (selected(*it)) files.push_back(it->path().string());
+    }
+    if (ec) fail(ec);
+  } else {
+    fs::directory_iterator it(dir, options, ec), end;
+    if (ec) fail(ec);
+    for (; it != end; it.increment(ec)) {
+      if (ec) fail(ec);
+      const std::string name = it->path().filename().string();
+      if (!name.empty() && name[0] == '.') continue;
+      if (selected(*it)) files.push_back(it->path().string());
+    }
+    if (ec) fail(ec);
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
 
 }  // namespace relight

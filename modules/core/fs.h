@@ -51,4 +51,18 @@ unsigned long long FreeBytes(const std::string& path);
 // Joins path components.
 std::string JoinPath(const std::string& a, const std::string& b);
 
+// Which files of a folder a reader takes: regular files (or links to them)
+// whose names do not start with '.', outside hidden sub-folders, below
+// sub-folders only when `recursive`, and, when `extensions` is not empty,
+// only those whose lower-case extension is listed. A stage that reads a
+// folder declares its selection on the option (OptionField::Reads), so the
+// cache key digests exactly the files the stage reads.
+struct FileSelection {
+  bool recursive = true;
+  std::vector<std::string> extensions;  // lower case with the dot (".jpg"); empty: every file
+};
+// The selected files below `dir`, sorted. Sub-folders that cannot be opened
+// are skipped; throws UserError naming `dir` when it cannot be listed.
+std::vector<std::string> ListFiles(const std::string& dir, const FileSelection& selection);
+
 }  // namespace relight

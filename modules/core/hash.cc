@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
+#include "core/path_text.h"
 
 namespace relight {
 namespace fs = std::filesystem;
@@ -80,40 +81,39 @@ std::string DigestCache::FileDigest(const std::string& path) {
   const auto size = fs::file_size(path, ec);
   const auto mtime = fs::last_write_time(path, ec).time_since_epoch().count();
   const std::string stamp = std::to_string(size) + ":" + std::to_string(mtime);
+  const std::string key = PathText(path);
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    auto it = entries_.find(path);
+    auto it = entries_.find(key);
     if (it != entries_.end() && it->second.first == stamp) return it->second.second;
   }
   const std::string digest = FileSha256(path);
   std::lock_guard<std::mutex> lock(mutex_);
-  entries_[path] = {stamp, digest};
+  entries_[key] = {stamp, digest};
   dirty_ = true;
   return digest;
 }
 
-std::string DigestCache::Digest(const std::string& path_in) {
-  const std::string path = fs::absolute(path_in).lexically_normal().string();
-  if (fs::is_regular_file(path)) return FileDigest(path);
-  if (!fs::is_directory(path)) {
+std::string DigestCache::Digest(const std::string& path_in, const FileSelection& selection) {
+  std::error_code ec;
+  const std::string path = fs::absolute(path_in, ec).lexically_normal().string();
+  if (fs::is_regular_file(path, ec)) return FileDigest(path);
+  if (!fs::is_directory(path, ec)) {
     RELIGHT_USER_ERROR() << "input '" << path_in << "' does not exist; fix the path in the config";
   }
-  std::vector<std::string> files;
-  for (auto it = fs::recursive_directory_iterator(path, fs::directory_options::skip_permission_denied);
-       it != fs::recursive_directory_iterator(); ++it) {
-    const std::string name = it->path().filename().string();
-    if (!name.empty() && name[0] == '.') {
-      if (it->is_directory()) it.disable_recursion_pending();
-      continue;
-    }
-    if (it->is_regular_file()) files.push_back(it->path().string());
-  }
-  std::sort(files.begin(), files.end());
   Sha256 h;
-  for (const auto& file : files) {
-    h.Update(fs::relative(file, path).generic_string());
+  for (const auto& file : ListFiles(path, selection)) {
+    std::string digest;
+    try {
+      digest = FileDigest(file);
+    } catch (const UserError&) {  // unreadable: the stage skips or reports it
+      const auto size = fs::file_size(file, ec);
+      digest = "unreadable:" + std::to_string(ec ? 0 : size) + ":" +
+               std::to_string(fs::last_write_time(file, ec).time_since_epoch().count());
+    }
+    h.Update(fs::path(file).lexically_relative(path).generic_string());
     h.Update("\n");
-    h.Update(FileDigest(file));
+    h.Update(digest);
     h.Update("\n");
   }
   return h.HexDigest();

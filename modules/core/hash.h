@@ -8,6 +8,8 @@
 #include <string>
 #include <string_view>
 
+#include "core/fs.h"
+
 namespace relight {
 
 // Incremental SHA-256.
@@ -39,10 +41,11 @@ class DigestCache {
  public:
   // `cache_file` may be empty (no persistence).
   explicit DigestCache(std::string cache_file = "");
-  // Digest of a file's bytes, or of a folder: every regular file below it
-  // (sorted relative paths, each with its content digest). Hidden files are
-  // ignored. Throws UserError when the path does not exist.
-  std::string Digest(const std::string& path);
+  // Digest of a file's bytes, or of a folder: the files `selection` takes from
+  // it (ListFiles; sorted relative paths, each with its content digest; a file
+  // that cannot be read counts by its size and time, so the stage reading it
+  // reports it). Throws UserError when the path does not exist.
+  std::string Digest(const std::string& path, const FileSelection& selection = {});
   // Writes the remembered digests (atomically). No-op without a cache file.
   void Save() const;
 
@@ -51,7 +54,8 @@ class DigestCache {
 
   std::string cache_file_;
   mutable std::mutex mutex_;
-  std::map<std::string, std::pair<std::string, std::string>> entries_;  // path -> (stamp, digest)
+  // PathText(absolute path) -> (stamp, digest); the cache file is JSON, hence text keys.
+  std::map<std::string, std::pair<std::string, std::string>> entries_;
   bool dirty_ = false;
 };
 

@@ -1,5 +1,6 @@
 // Logging for stages and tools, on spdlog: one console stream (stderr) and,
-// for stages, one log file in the stage's cache folder.
+// for stages, one log file in the stage's cache folder. Messages follow the
+// path-to-text rule (core/path_text.h): bytes that are not UTF-8 print as \xHH.
 //
 // Lines read `12:03:04 synthesize: rendering photo 3/16`; warnings and errors
 // carry `warning:` / `error:` so they stand out in plain logs and CI output.
@@ -24,6 +25,11 @@ void InitLogging(const std::string& name, const std::string& log_file, LogLevel 
 void FlushLogs();
 // Writes a line to the log file only (progress milestones when a bar is on screen).
 void LogFileOnly(const std::string& line);
+// On a crash (SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT) writes "NAME: error:
+// crashed with signal N (...)" and a backtrace to stderr and `log_file`, then
+// dies of the same signal (the orchestrator reports it). Lines logged before
+// are already in the file: every line is flushed as it is written.
+void InstallCrashHandler(const std::string& name, const std::string& log_file);
 
 }  // namespace relight
 

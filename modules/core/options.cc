@@ -155,6 +155,10 @@ OptionField& OptionField::OutputPath() {
   path_role_ = PathRole::kOutput;
   return *this;
 }
+OptionField& OptionField::Reads(std::function<FileSelection()> selection) {
+  selection_ = std::move(selection);
+  return *this;
+}
 OptionField& OptionField::NotInKey() {
   in_key_ = false;
   return *this;
@@ -427,15 +431,24 @@ void OptionTable::Validate(const std::string& where) const {
   for (const auto& f : fields_) f.Validate(where);
 }
 
-std::string OptionTable::CanonicalText(const std::function<std::string(const std::string&)>& digest) const {
+std::string OptionTable::CanonicalText(const DigestFn& digest) const {
   std::map<std::string, std::string> lines;
   for (const auto& f : fields_) {
     if (!f.in_key() || f.path_role() == PathRole::kOutput) continue;
     std::string value = f.ValueText();
     // A missing input names the option that points at it.
     auto keyed_digest = [&](const std::string& path) -> std::string {
+      std::error_code ec;
+      if (f.path_role() == PathRole::kInputDir && fs::is_regular_file(path, ec)) {
+        RELIGHT_USER_ERROR() << section_ << "." << f.name() << ": '" << path
+                             << "' is a file, not a folder; set it to the folder that holds the files";
+      }
+      if (f.path_role() == PathRole::kInputFile && fs::is_directory(path, ec)) {
+        RELIGHT_USER_ERROR() << section_ << "." << f.name() << ": '" << path
+                             << "' is a folder, not a file; name the file itself (" << f.doc() << ")";
+      }
       try {
-        return digest(path);
+        return digest(path, f.selection());
       } catch (const UserError& e) {
         throw UserError(section_ + "." + f.name() + ": " + e.what());
       }

@@ -25,6 +25,8 @@
 #include <variant>
 #include <vector>
 
+#include "core/fs.h"
+
 namespace YAML {
 class Node;
 }
@@ -61,12 +63,18 @@ class OptionField {
   OptionField& NotInKey();
   // A list option must have exactly `n` entries.
   OptionField& Size(int n);
+  // An input folder: the files the stage reads from it (called when the key is
+  // computed, so it may depend on other options of the same struct). Only
+  // these files' names and contents enter the cache key. Default: every file.
+  OptionField& Reads(std::function<FileSelection()> selection);
 
   const std::string& name() const { return name_; }
   const std::string& doc() const { return doc_; }
   PathRole path_role() const { return path_role_; }
   bool in_key() const { return in_key_; }
   bool is_input_path() const;
+  // The files of an input folder the stage reads (Reads(); default: all).
+  FileSelection selection() const { return selection_ ? selection_() : FileSelection{}; }
   const std::vector<std::string>& choices() const { return choices_; }
   // "int", "float", "bool", "string", "path", "list of float", ...
   std::string TypeName() const;
@@ -106,6 +114,7 @@ class OptionField {
   PathRole path_role_ = PathRole::kNone;
   bool in_key_ = true;
   std::string default_text_;
+  std::function<FileSelection()> selection_;
 };
 
 // All options of one section (a stage, or `pipeline`).
@@ -138,9 +147,14 @@ class OptionTable {
   // Validates every field's constraints.
   void Validate(const std::string& where) const;
 
+  // Content digest of an input path: a file's bytes, or the files a folder
+  // option reads from it (DigestCache::Digest).
+  using DigestFn = std::function<std::string(const std::string& path, const FileSelection& selection)>;
   // Canonical text of the result-affecting options: one sorted line per
   // field, `section.name=value`. Input paths are replaced by `digest(path)`.
-  std::string CanonicalText(const std::function<std::string(const std::string&)>& digest) const;
+  // Throws UserError naming the option when an input file is a folder or an
+  // input folder is a file.
+  std::string CanonicalText(const DigestFn& digest) const;
   // The resolved values as a YAML mapping node (all fields, including NotInKey ones).
   YAML::Node ToYaml() const;
   // Markdown table of the options: key, type, default, constraints, doc.

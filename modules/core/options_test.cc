@@ -3,7 +3,10 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <fstream>
+
 #include "core/error.h"
+#include "testing/testing.h"
 
 namespace relight {
 namespace {
@@ -29,7 +32,7 @@ struct DemoOptions {
   }
 };
 
-std::string NoDigest(const std::string& p) { return "digest(" + p + ")"; }
+std::string NoDigest(const std::string& p, const FileSelection&) { return "digest(" + p + ")"; }
 
 TEST(OptionsTest, DefaultsAreDeclarationValues) {
   DemoOptions o;
@@ -61,6 +64,56 @@ TEST(OptionsTest, InputPathsEnterKeyByDigest) {
   EXPECT_EQ(o.maps, (std::vector<std::string>{"/cfg/x.hdr", "/abs/y.exr"}));
   EXPECT_NE(t.CanonicalText(NoDigest).find("demo.maps=[sha256:digest(/cfg/x.hdr), sha256:digest(/abs/y.exr)]"),
             std::string::npos);
+}
+
+TEST(OptionsTest, InputFileThatIsAFolderAndFolderThatIsAFileNameTheOption) {
+  testing::TempDir dir;
+  std::ofstream(dir / "photo.jpg") << "x";
+  struct Paths {
+    std::string folder;
+    std::vector<std::string> maps;
+    void Declare(OptionTable* t) {
+      t->Add("folder", &folder, "Photo folder.").InputDir();
+      t->Add("maps", &maps, "Lat-long HDR maps.").InputFile();
+    }
+  } o;
+  OptionTable t = MakeOptionTable("demo", &o);
+  o.folder = dir / "photo.jpg";
+  try {
+    t.CanonicalText(NoDigest);
+    FAIL();
+  } catch (const UserError& e) {
+    EXPECT_EQ(std::string(e.what()), "demo.folder: '" + (dir / "photo.jpg") +
+                                         "' is a file, not a folder; set it to the folder that holds the files");
+  }
+  o.folder = dir.path();
+  o.maps = {dir.path()};
+  try {
+    t.CanonicalText(NoDigest);
+    FAIL();
+  } catch (const UserError& e) {
+    EXPECT_EQ(std::string(e.what()), "demo.maps: '" + dir.path() +
+                                         "' is a folder, not a file; name the file itself (Lat-long HDR maps.)");
+  }
+}
+
+TEST(OptionsTest, FolderOptionsPassTheirFileSelectionToTheDigest) {
+  struct Folder {
+    std::string photos;
+    bool recursive = false;
+    void Declare(OptionTable* t) {
+      t->Add("photos", &photos, "Photos.").InputDir().Reads([this] { return FileSelection{recursive, {".jpg"}}; });
+      t->Add("recursive", &recursive, "Sub-folders too.");
+    }
+  } o;
+  OptionTable t = MakeOptionTable("demo", &o);
+  o.photos = "/p";
+  auto digest = [](const std::string& path, const FileSelection& s) {
+    return path + (s.recursive ? ":tree" : ":top") + ":" + s.extensions.at(0);
+  };
+  EXPECT_NE(t.CanonicalText(digest).find("demo.photos=sha256:/p:top:.jpg"), std::string::npos);
+  o.recursive = true;
+  EXPECT_NE(t.CanonicalText(digest).find("demo.photos=sha256:/p:tree:.jpg"), std::string::npos);
 }
 
 TEST(OptionsTest, YamlValuesParsedAndValidated) {

@@ -12,6 +12,7 @@
 
 #include "core/fs.h"
 #include "core/log.h"
+#include "core/path_text.h"
 
 namespace relight {
 namespace fs = std::filesystem;
@@ -49,7 +50,7 @@ int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* t
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return app.exit(e) == 0 ? kExitOk : kExitUserError;  // --help is 0; CLI11's own codes (106, ...) mean nothing here
   }
   if (!print_options.empty()) {
     std::cout << (print_options == "markdown" ? table->MarkdownReference() : table->HelpText());
@@ -58,7 +59,8 @@ int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* t
 
   StageContext ctx;
   ctx.threads = threads;
-  auto fail = [&](int code, const std::string& reason) {
+  auto fail = [&](int code, const std::string& raw_reason) {
+    const std::string reason = PathText(raw_reason);
     // One line, for the orchestrator's summary and the user.
     if (!ctx.output_dir.empty()) {
       try {
@@ -86,6 +88,7 @@ int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* t
     std::error_code ec;
     fs::remove(JoinPath(ctx.output_dir, "error.txt"), ec);
     InitLogging(info.name, JoinPath(ctx.output_dir, "stage.log"), ParseLogLevel(log_level));
+    InstallCrashHandler(info.name, JoinPath(ctx.output_dir, "stage.log"));
 
     for (const auto& input : inputs) {
       const size_t eq = input.find('=');

@@ -83,6 +83,11 @@ void Camera::Check(const std::string& where) const {
   if (width <= 0 || height <= 0) {
     RELIGHT_USER_ERROR() << where << ": camera " << camera_id << " has invalid size " << width << "x" << height;
   }
+  for (double p : params) {
+    if (!std::isfinite(p)) {
+      RELIGHT_USER_ERROR() << where << ": camera " << camera_id << " has a parameter that is not a finite number";
+    }
+  }
   if (!(FocalX() > 0) || !(FocalY() > 0)) {
     RELIGHT_USER_ERROR() << where << ": camera " << camera_id << " has a non-positive focal length";
   }

@@ -1,6 +1,8 @@
 #include "geometry/mesh_io.h"
 
 #include <algorithm>
+#include <climits>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -87,6 +89,13 @@ class PlyBodyReader {
     return 0;
   }
 
+  // A list count or vertex index: an integer in int's range, else the file is damaged.
+  int ReadInt(PlyType t) {
+    const double v = Read(t);
+    if (!(v >= INT_MIN && v <= INT_MAX)) Damaged();
+    return static_cast<int>(v);
+  }
+
   [[noreturn]] void Damaged() {
     RELIGHT_USER_ERROR() << "'" << file_ << "' ends early or holds invalid numbers; the mesh file is damaged";
   }
@@ -149,6 +158,24 @@ TriangleMesh ReadPly(const std::string& path) {
   }
   if (!header_done) RELIGHT_USER_ERROR() << "'" << path << "': PLY header has no end_header";
 
+  // Counts come from the header: each item takes at least one byte per property (binary: the property's size;
+  // ASCII: a digit), so a count the rest of the file cannot hold is damage, found before anything is allocated.
+  const std::streamoff body_start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streamoff body_bytes = std::max<std::streamoff>(0, in.tellg() - body_start);
+  in.seekg(body_start);
+  for (const PlyElement& e : elements) {
+    size_t item_bytes = 0;
+    for (const PlyProperty& p : e.properties) {
+      item_bytes += format == PlyFormat::kAscii ? 2 : TypeSize(p.is_list ? p.count_type : p.type);
+    }
+    if (e.count > static_cast<size_t>(body_bytes) / std::max<size_t>(1, item_bytes)) {
+      RELIGHT_USER_ERROR() << "'" << path << "': the header claims " << e.count << " " << e.name
+                           << " items, more than the file's " << body_bytes << " bytes of data hold; the mesh file is "
+                           << "damaged";
+    }
+  }
+
   TriangleMesh mesh;
   PlyBodyReader reader(in, format, path);
   for (const PlyElement& e : elements) {
@@ -189,7 +216,7 @@ TriangleMesh ReadPly(const std::string& path) {
         for (size_t k = 0; k < e.properties.size(); ++k) {
           const PlyProperty& p = e.properties[k];
           if (p.is_list) {
-            const int n = static_cast<int>(reader.Read(p.count_type));
+            const int n = reader.ReadInt(p.count_type);
             for (int q = 0; q < n; ++q) reader.Read(p.type);
             continue;
           }
@@ -202,7 +229,8 @@ TriangleMesh ReadPly(const std::string& path) {
           const double s = is_float ? 255.0 : 1.0;
           for (int c = 0; c < 3; ++c) {
             const double x = values[c == 0 ? ir : c == 1 ? ig : ib] * s;
-            mesh.colors[v][c] = static_cast<uint8_t>(std::clamp(x + (is_float ? 0.5 : 0.0), 0.0, 255.0));
+            mesh.colors[v][c] =
+                std::isfinite(x) ? static_cast<uint8_t>(std::clamp(x + (is_float ? 0.5 : 0.0), 0.0, 255.0)) : 0;
           }
         }
         for (size_t k = 0; k < e.properties.size(); ++k) {
@@ -227,10 +255,10 @@ TriangleMesh ReadPly(const std::string& path) {
             reader.Read(p.type);
             continue;
           }
-          const int n = static_cast<int>(reader.Read(p.count_type));
+          const int n = reader.ReadInt(p.count_type);
           if (n < 0 || n > 1000) reader.Damaged();
           poly.resize(n);
-          for (int q = 0; q < n; ++q) poly[q] = static_cast<int>(reader.Read(p.type));
+          for (int q = 0; q < n; ++q) poly[q] = reader.ReadInt(p.type);
           if (static_cast<int>(k) == list_index) AddFan(poly, &mesh.faces);
         }
       }
@@ -239,7 +267,7 @@ TriangleMesh ReadPly(const std::string& path) {
       for (size_t i = 0; i < e.count; ++i) {
         for (const auto& p : e.properties) {
           if (p.is_list) {
-            const int n = static_cast<int>(reader.Read(p.count_type));
+            const int n = reader.ReadInt(p.count_type);
             for (int q = 0; q < n; ++q) reader.Read(p.type);
           } else {
             reader.Read(p.type);
@@ -318,9 +346,32 @@ TriangleMesh ReadOff(const std::string& path) {
   ++pos;
   auto next = [&]() -> double {
     if (pos >= tokens.size()) RELIGHT_USER_ERROR() << "'" << path << "' ends early; the mesh file is damaged";
-    return std::stod(tokens[pos++]);
+    const std::string& token = tokens[pos++];
+    char* end = nullptr;
+    const double v = std::strtod(token.c_str(), &end);
+    if (end == token.c_str() || *end != '\0' || !std::isfinite(v)) {
+      RELIGHT_USER_ERROR() << "'" << path << "': '" << token.substr(0, 40) << "' is not a finite number; the mesh "
+                           << "file is damaged";
+    }
+    return v;
   };
-  const int nv = static_cast<int>(next()), nf = static_cast<int>(next());
+  // A count or index: an integer no larger than what the remaining tokens can hold (checked before allocating).
+  auto next_count = [&](size_t per_item) -> int {
+    const double v = next();
+    const double most = double(tokens.size() - pos) / double(per_item);
+    if (!(v >= 0 && v <= most && v == std::floor(v))) {
+      RELIGHT_USER_ERROR() << "'" << path << "': count " << v << " does not fit the file; the mesh file is damaged";
+    }
+    return static_cast<int>(v);
+  };
+  auto next_index = [&]() -> int {
+    const double v = next();
+    if (!(v >= INT_MIN && v <= INT_MAX)) {
+      RELIGHT_USER_ERROR() << "'" << path << "': index " << v << " is out of range; the mesh file is damaged";
+    }
+    return static_cast<int>(v);
+  };
+  const int nv = next_count(3), nf = next_count(1);
   next();  // edges
   TriangleMesh mesh;
   mesh.vertices.resize(nv);
@@ -332,9 +383,9 @@ TriangleMesh ReadOff(const std::string& path) {
   }
   std::vector<int> poly;
   for (int i = 0; i < nf; ++i) {
-    const int n = static_cast<int>(next());
+    const int n = next_count(1);
     poly.resize(n);
-    for (int k = 0; k < n; ++k) poly[k] = static_cast<int>(next());
+    for (int k = 0; k < n; ++k) poly[k] = next_index();
     AddFan(poly, &mesh.faces);
     // Optional per-face colour tokens up to the end of the line are not separable
     // after tokenising; OFF files with face colours are rare for scans and are not supported.

@@ -1,9 +1,13 @@
 #include "geometry/reconstruction.h"
 
+#include <algorithm>
+#include <climits>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <locale>
 #include <sstream>
 
 #include "core/error.h"
@@ -38,13 +42,42 @@ Sim3 Sim3::Inverse() const {
 namespace {
 
 // ---- binary helpers --------------------------------------------------------
-template <typename T>
-T ReadPod(std::istream& in, const std::string& file) {
-  T v;
-  in.read(reinterpret_cast<char*>(&v), sizeof(T));
-  if (!in) RELIGHT_USER_ERROR() << "'" << file << "' is truncated or damaged; rerun the sfm stage";
-  return v;
-}
+// A COLMAP .bin file with its size, so that counts read from it can be checked
+// against the bytes left before anything is allocated for them.
+class BinaryFile {
+ public:
+  explicit BinaryFile(std::string path) : path_(std::move(path)), in_(path_, std::ios::binary) {
+    if (!in_) RELIGHT_USER_ERROR() << "cannot read COLMAP model file '" << path_ << "'";
+    in_.seekg(0, std::ios::end);
+    size_ = static_cast<uint64_t>(std::max<std::streamoff>(0, in_.tellg()));
+    in_.seekg(0, std::ios::beg);
+  }
+  template <typename T>
+  T Read() {
+    T v;
+    in_.read(reinterpret_cast<char*>(&v), sizeof(T));
+    if (!in_) Damaged("it ends early");
+    return v;
+  }
+  // Throws unless `count` items of at least `bytes_each` bytes fit in what is left.
+  void CheckCount(uint64_t count, uint64_t bytes_each, const char* what) {
+    const uint64_t left = size_ - static_cast<uint64_t>(in_.tellg());
+    if (count > left / bytes_each) {
+      Damaged("it claims " + std::to_string(count) + " " + what + " but has " + std::to_string(left) + " bytes left");
+    }
+  }
+  [[noreturn]] void Damaged(const std::string& why) {
+    RELIGHT_USER_ERROR() << "'" << path_ << "' is not a valid COLMAP binary model file (" << why
+                         << "); rerun the stage that wrote it, or give a model written by COLMAP";
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  std::ifstream in_;
+  uint64_t size_ = 0;
+};
+
 template <typename T>
 void WritePod(std::string* out, T v) {
   out->append(reinterpret_cast<const char*>(&v), sizeof(T));
@@ -56,9 +89,10 @@ std::ifstream OpenOrThrow(const std::string& path, bool binary) {
   return in;
 }
 
-// Next non-comment, non-empty line.
-bool NextLine(std::istream& in, std::string* line) {
+// Next non-comment, non-empty line; counts lines read into `*number`.
+bool NextLine(std::istream& in, std::string* line, int* number) {
   while (std::getline(in, *line)) {
+    ++*number;
     const size_t b = line->find_first_not_of(" \t\r");
     if (b == std::string::npos || (*line)[b] == '#') continue;
     return true;
@@ -66,9 +100,13 @@ bool NextLine(std::istream& in, std::string* line) {
   return false;
 }
 
-[[noreturn]] void BadLine(const std::string& file, const std::string& line) {
-  RELIGHT_USER_ERROR() << "'" << file << "': malformed line '" << line.substr(0, 80) << "'";
+[[noreturn]] void BadLine(const std::string& file, int number, const std::string& line, const std::string& expected) {
+  RELIGHT_USER_ERROR() << "'" << file << "' line " << number << " is not a COLMAP model line ('" << line.substr(0, 80)
+                       << (line.size() > 80 ? "..." : "") << "'; expected " << expected
+                       << "); give a model folder written by COLMAP";
 }
+
+bool Finite(const Eigen::Vector3d& v) { return v.allFinite(); }
 
 }  // namespace
 
@@ -82,38 +120,59 @@ Reconstruction Reconstruction::ReadText(const std::string& dir) {
   Reconstruction r;
   {
     const std::string file = JoinPath(dir, "cameras.txt");
+    const char* expected = "CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]";
     auto in = OpenOrThrow(file, false);
     std::string line;
-    while (NextLine(in, &line)) {
+    int number = 0;
+    while (NextLine(in, &line, &number)) {
       std::istringstream s(line);
+      s.imbue(std::locale::classic());
       Camera c;
-      if (!(s >> c.camera_id >> c.model >> c.width >> c.height)) BadLine(file, line);
+      long long id = -1;
+      if (!(s >> id >> c.model >> c.width >> c.height) || id < 0 || id > UINT32_MAX) {
+        BadLine(file, number, line, expected);
+      }
+      c.camera_id = static_cast<uint32_t>(id);
       double p;
       while (s >> p) c.params.push_back(p);
-      c.Check(file);
+      if (!s.eof()) BadLine(file, number, line, expected);  // something after the numbers
+      c.Check(file + " line " + std::to_string(number));
       r.cameras[c.camera_id] = c;
     }
   }
   {
     const std::string file = JoinPath(dir, "images.txt");
+    const char* expected = "IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME, then a line of POINTS2D[] as (X Y POINT3D_ID)";
     auto in = OpenOrThrow(file, false);
     std::string line;
-    while (NextLine(in, &line)) {
+    int number = 0;
+    while (NextLine(in, &line, &number)) {
       std::istringstream s(line);
+      s.imbue(std::locale::classic());
       ImageRecord im;
       double qw, qx, qy, qz;
-      if (!(s >> im.image_id >> qw >> qx >> qy >> qz >> im.cam_from_world_translation.x() >>
-            im.cam_from_world_translation.y() >> im.cam_from_world_translation.z() >> im.camera_id)) {
-        BadLine(file, line);
+      long long image_id = -1, camera_id = -1;
+      if (!(s >> image_id >> qw >> qx >> qy >> qz >> im.cam_from_world_translation.x() >>
+            im.cam_from_world_translation.y() >> im.cam_from_world_translation.z() >> camera_id) ||
+          image_id < 0 || image_id > UINT32_MAX || camera_id < 0 || camera_id > UINT32_MAX) {
+        BadLine(file, number, line, expected);
       }
+      im.image_id = static_cast<uint32_t>(image_id);
+      im.camera_id = static_cast<uint32_t>(camera_id);
       s >> std::ws;
       std::getline(s, im.name);  // names may contain spaces
       while (!im.name.empty() && (im.name.back() == '\r' || im.name.back() == ' ')) im.name.pop_back();
+      const Eigen::Vector4d q(qw, qx, qy, qz);
+      if (im.name.empty() || !q.allFinite() || !(q.norm() > 1e-12) || !Finite(im.cam_from_world_translation)) {
+        BadLine(file, number, line, std::string(expected) + ", a non-zero finite rotation and a finite translation");
+      }
       im.cam_from_world_rotation = Eigen::Quaterniond(qw, qx, qy, qz).normalized();
       // The points line follows (it may be empty, so read it raw).
       std::string points;
       if (std::getline(in, points)) {
+        ++number;
         std::istringstream ps(points);
+        ps.imbue(std::locale::classic());
         double x, y;
         long long id;
         while (ps >> x >> y >> id) {
@@ -124,21 +183,26 @@ Reconstruction Reconstruction::ReadText(const std::string& dir) {
         }
       }
       if (!r.cameras.count(im.camera_id)) {
-        RELIGHT_USER_ERROR() << "'" << file << "': image '" << im.name << "' uses unknown camera " << im.camera_id;
+        RELIGHT_USER_ERROR() << "'" << file << "' line " << number << ": image '" << im.name
+                             << "' uses camera " << im.camera_id << ", which cameras.txt does not list";
       }
       r.images[im.image_id] = im;
     }
   }
   const std::string points_file = JoinPath(dir, "points3D.txt");
   if (fs::exists(points_file)) {
+    const char* expected = "POINT3D_ID X Y Z R G B ERROR TRACK[] as (IMAGE_ID POINT2D_IDX)";
     auto in = OpenOrThrow(points_file, false);
     std::string line;
-    while (NextLine(in, &line)) {
+    int number = 0;
+    while (NextLine(in, &line, &number)) {
       std::istringstream s(line);
+      s.imbue(std::locale::classic());
       Point3D p;
       int rr, gg, bb;
-      if (!(s >> p.point3d_id >> p.xyz.x() >> p.xyz.y() >> p.xyz.z() >> rr >> gg >> bb >> p.error)) {
-        BadLine(points_file, line);
+      if (!(s >> p.point3d_id >> p.xyz.x() >> p.xyz.y() >> p.xyz.z() >> rr >> gg >> bb >> p.error) ||
+          !Finite(p.xyz) || std::min({rr, gg, bb}) < 0 || std::max({rr, gg, bb}) > 255) {
+        BadLine(points_file, number, line, expected);
       }
       p.rgb = {static_cast<uint8_t>(rr), static_cast<uint8_t>(gg), static_cast<uint8_t>(bb)};
       uint32_t image_id, idx;
@@ -152,62 +216,75 @@ Reconstruction Reconstruction::ReadText(const std::string& dir) {
 Reconstruction Reconstruction::ReadBinary(const std::string& dir) {
   Reconstruction r;
   {
-    const std::string file = JoinPath(dir, "cameras.bin");
-    auto in = OpenOrThrow(file, true);
-    const uint64_t n = ReadPod<uint64_t>(in, file);
+    BinaryFile in(JoinPath(dir, "cameras.bin"));
+    const uint64_t n = in.Read<uint64_t>();
+    in.CheckCount(n, 24, "cameras");
     for (uint64_t i = 0; i < n; ++i) {
       Camera c;
-      c.camera_id = ReadPod<uint32_t>(in, file);
-      c.model = Camera::ModelName(ReadPod<int32_t>(in, file));
-      c.width = static_cast<int>(ReadPod<uint64_t>(in, file));
-      c.height = static_cast<int>(ReadPod<uint64_t>(in, file));
+      c.camera_id = in.Read<uint32_t>();
+      c.model = Camera::ModelName(in.Read<int32_t>());
+      const uint64_t width = in.Read<uint64_t>(), height = in.Read<uint64_t>();
+      if (width > INT32_MAX || height > INT32_MAX) in.Damaged("camera size " + std::to_string(width) + "x" + std::to_string(height));
+      c.width = static_cast<int>(width);
+      c.height = static_cast<int>(height);
       c.params.resize(Camera::NumParams(c.model));
-      for (double& p : c.params) p = ReadPod<double>(in, file);
-      c.Check(file);
+      for (double& p : c.params) p = in.Read<double>();
+      c.Check(in.path());
       r.cameras[c.camera_id] = c;
     }
   }
   {
-    const std::string file = JoinPath(dir, "images.bin");
-    auto in = OpenOrThrow(file, true);
-    const uint64_t n = ReadPod<uint64_t>(in, file);
+    BinaryFile in(JoinPath(dir, "images.bin"));
+    const uint64_t n = in.Read<uint64_t>();
+    in.CheckCount(n, 73, "images");
     for (uint64_t i = 0; i < n; ++i) {
       ImageRecord im;
-      im.image_id = ReadPod<uint32_t>(in, file);
+      im.image_id = in.Read<uint32_t>();
       double q[4], t[3];
-      for (double& v : q) v = ReadPod<double>(in, file);
-      for (double& v : t) v = ReadPod<double>(in, file);
-      im.cam_from_world_rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+      for (double& v : q) v = in.Read<double>();
+      for (double& v : t) v = in.Read<double>();
+      const Eigen::Vector4d qv(q[0], q[1], q[2], q[3]);
       im.cam_from_world_translation = {t[0], t[1], t[2]};
-      im.camera_id = ReadPod<uint32_t>(in, file);
+      if (!qv.allFinite() || !(qv.norm() > 1e-12) || !Finite(im.cam_from_world_translation)) {
+        in.Damaged("image " + std::to_string(im.image_id) + " has a zero or non-finite pose");
+      }
+      im.cam_from_world_rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+      im.camera_id = in.Read<uint32_t>();
       char ch;
-      while ((ch = ReadPod<char>(in, file)) != '\0') im.name.push_back(ch);
-      const uint64_t np = ReadPod<uint64_t>(in, file);
+      while ((ch = in.Read<char>()) != '\0') im.name.push_back(ch);
+      const uint64_t np = in.Read<uint64_t>();
+      in.CheckCount(np, 24, "2D points");
       im.points2d.resize(np);
       for (auto& p : im.points2d) {
-        p.xy.x() = ReadPod<double>(in, file);
-        p.xy.y() = ReadPod<double>(in, file);
-        p.point3d_id = ReadPod<uint64_t>(in, file);
+        p.xy.x() = in.Read<double>();
+        p.xy.y() = in.Read<double>();
+        p.point3d_id = in.Read<uint64_t>();
+      }
+      if (!r.cameras.count(im.camera_id)) {
+        in.Damaged("image '" + im.name + "' uses camera " + std::to_string(im.camera_id) + ", which cameras.bin does not list");
       }
       r.images[im.image_id] = im;
     }
   }
   const std::string points_file = JoinPath(dir, "points3D.bin");
   if (fs::exists(points_file)) {
-    auto in = OpenOrThrow(points_file, true);
-    const uint64_t n = ReadPod<uint64_t>(in, points_file);
+    BinaryFile in(points_file);
+    const uint64_t n = in.Read<uint64_t>();
+    in.CheckCount(n, 51, "3D points");
     for (uint64_t i = 0; i < n; ++i) {
       Point3D p;
-      p.point3d_id = ReadPod<uint64_t>(in, points_file);
-      for (int k = 0; k < 3; ++k) p.xyz[k] = ReadPod<double>(in, points_file);
-      for (int k = 0; k < 3; ++k) p.rgb[k] = ReadPod<uint8_t>(in, points_file);
-      p.error = ReadPod<double>(in, points_file);
-      const uint64_t len = ReadPod<uint64_t>(in, points_file);
+      p.point3d_id = in.Read<uint64_t>();
+      for (int k = 0; k < 3; ++k) p.xyz[k] = in.Read<double>();
+      for (int k = 0; k < 3; ++k) p.rgb[k] = in.Read<uint8_t>();
+      p.error = in.Read<double>();
+      const uint64_t len = in.Read<uint64_t>();
+      in.CheckCount(len, 8, "track entries");
       p.track.resize(len);
       for (auto& t : p.track) {
-        t.first = ReadPod<uint32_t>(in, points_file);
-        t.second = ReadPod<uint32_t>(in, points_file);
+        t.first = in.Read<uint32_t>();
+        t.second = in.Read<uint32_t>();
       }
+      if (!Finite(p.xyz)) in.Damaged("point " + std::to_string(p.point3d_id) + " is not finite");
       r.points3d[p.point3d_id] = p;
     }
   }

@@ -137,5 +137,55 @@ TEST(ReconstructionTest, MissingAndDamagedFilesAreUserErrors) {
   EXPECT_THROW(Reconstruction::ReadBinary(dir.path()), UserError);
 }
 
+using testing::ErrorOf;
+
+TEST(ReconstructionTest, ArbitraryTextIsAParseErrorNamingFileAndLine) {
+  // Issue 34: a random cameras.txt given as sfm.model ended in an internal error (exit 3).
+  testing::TempDir dir;
+  WriteFileAtomic(dir / "images.txt", "");
+  WriteFileAtomic(dir / "cameras.txt", "# cameras\n1 PINHOLE 640 480 500 500 320 240 junk\n");
+  EXPECT_EQ(ErrorOf([&] { Reconstruction::Read(dir.path()); }),
+            "'" + (dir / "cameras.txt") +
+                "' line 2 is not a COLMAP model line ('1 PINHOLE 640 480 500 500 320 240 junk'; expected CAMERA_ID "
+                "MODEL WIDTH HEIGHT PARAMS[]); give a model folder written by COLMAP");
+  WriteFileAtomic(dir / "cameras.txt", "1 PINHOLE 640 480 nan 500 320 240\n");
+  EXPECT_NE(ErrorOf([&] { Reconstruction::Read(dir.path()); }).find("line 1 is not a COLMAP model line"),
+            std::string::npos);
+  WriteFileAtomic(dir / "cameras.txt", "-1 PINHOLE 640 480 500 500 320 240\n");
+  EXPECT_NE(ErrorOf([&] { Reconstruction::Read(dir.path()); }).find("line 1 is not a COLMAP model line"),
+            std::string::npos);
+  WriteFileAtomic(dir / "cameras.txt", "1 PINHOLE 640 480 500 500 320 240\n");
+  WriteFileAtomic(dir / "images.txt", "1 0 0 0 0 0 0 0 1 a.jpg\n\n");  // a zero quaternion
+  EXPECT_NE(ErrorOf([&] { Reconstruction::Read(dir.path()); }).find("a non-zero finite rotation"), std::string::npos);
+  // Random bytes and random lines: always a UserError, never another exception or a crash.
+  std::mt19937 rng(34);
+  for (int trial = 0; trial < 300; ++trial) {
+    std::string text;
+    const int n = std::uniform_int_distribution<int>(0, 200)(rng);
+    for (int k = 0; k < n; ++k) {
+      const char* alphabet = trial % 2 ? "0123456789 .-e\nPINHOLE#" : nullptr;
+      text += alphabet ? alphabet[rng() % 24] : static_cast<char>(rng());
+    }
+    WriteFileAtomic(dir / (trial % 3 ? "cameras.txt" : "images.txt"), text);
+    try {
+      Reconstruction::Read(dir.path());
+    } catch (const UserError&) {
+    }
+  }
+}
+
+TEST(ReconstructionTest, BinaryCountsBeyondTheFileAreDamageNotAllocations) {
+  testing::TempDir dir;
+  MakeModel().WriteBinary(dir.path());
+  std::string images = ReadFileToString(dir / "images.bin");
+  // The first image's 2D point count: after id, pose, camera id and "photo 1.jpg\0".
+  const size_t count_at = 8 + 4 + 7 * 8 + 4 + std::string("photo 1.jpg").size() + 1;
+  const uint64_t huge = uint64_t(1) << 60;
+  images.replace(count_at, 8, reinterpret_cast<const char*>(&huge), 8);
+  WriteFileAtomic(dir / "images.bin", images);
+  const std::string msg = ErrorOf([&] { Reconstruction::Read(dir.path()); });  // was std::length_error: exit 3
+  EXPECT_NE(msg.find("it claims 1152921504606846976 2D points but has "), std::string::npos) << msg;
+}
+
 }  // namespace
 }  // namespace relight

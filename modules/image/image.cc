@@ -48,7 +48,7 @@ ImageMetadata MetadataFromSpec(const ImageSpec& spec, const std::string& format)
 
 [[noreturn]] void NotAnImage(const std::string& path, const std::string& why) {
   RELIGHT_USER_ERROR() << "'" << path << "' is not a readable image (" << why
-                       << "); remove it from the folder or replace it with a valid JPEG/PNG/TIFF/EXR/HDR file";
+                       << "); replace it with a valid JPEG/PNG/TIFF/EXR/HDR file";
 }
 
 void CheckReadable(const std::string& path) {

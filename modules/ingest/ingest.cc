@@ -13,6 +13,8 @@
 #include "core/hash.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "core/options.h"
+#include "core/path_text.h"
 #include "core/progress.h"
 #include "core/timer.h"
 
@@ -21,15 +23,80 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// Why a file was not used, grouped in the error when too few photos are left.
+enum class SkipKind { kUnreadable, kSize, kGrayscale, kDuplicate };
+
 // Decoded photo before the duplicate and grayscale checks.
 struct Candidate {
-  IngestedPhoto photo;
+  IngestedPhoto photo;           // name and source_path as text (PathText)
+  std::string source;            // the source path's bytes, for reading
   Image image;                   // upright, downscaled
   std::vector<float> thumbnail;  // 32x32 luminance, zero mean, unit norm
   double mean_chroma = 0;
   bool ok = false;
   std::string reason;
+  SkipKind kind = SkipKind::kUnreadable;
 };
+
+// Reason to skip a photo of `width` x `height` pixels (from its header), or "".
+std::string SizeProblem(const IngestOptions& options, int width, int height) {
+  const double megapixels = double(width) * height / 1e6;
+  if (width <= 0 || height <= 0) return "its header gives no size";
+  if (megapixels > options.max_megapixels) {
+    return "its header claims " + std::to_string(width) + "x" + std::to_string(height) + " pixels (" +
+           std::to_string(static_cast<long>(std::lround(megapixels))) + " megapixels, more than ingest.max_megapixels = " +
+           CanonicalDouble(options.max_megapixels) + "); not decoded";
+  }
+  const int longest = std::max(width, height), shortest = std::min(width, height);
+  if (double(longest) > options.max_aspect_ratio * shortest) {
+    return std::to_string(width) + "x" + std::to_string(height) + " pixels is a strip, not a photo (sides more than " +
+           "ingest.max_aspect_ratio = " + CanonicalDouble(options.max_aspect_ratio) + " apart)";
+  }
+  const double scale = options.max_image_size > 0 && longest > options.max_image_size
+                           ? double(options.max_image_size) / longest
+                           : 1.0;
+  const int shortest_out = std::max(1, static_cast<int>(std::lround(shortest * scale)));
+  if (shortest_out < options.min_image_side) {
+    return std::to_string(width) + "x" + std::to_string(height) + " pixels" +
+           (scale < 1.0 ? " (shorter side " + std::to_string(shortest_out) + " after downscaling)" : std::string()) +
+           " is too small for feature matching (ingest.min_image_side = " + std::to_string(options.min_image_side) +
+           ")";
+  }
+  return "";
+}
+
+// The error when fewer than ingest.min_photos photos are usable: counts per
+// kind, the first file of each with its reason, and what to change.
+std::string TooFewPhotosMessage(const IngestOptions& options, const std::string& photo_dir,
+                                const std::vector<Candidate>& candidates, size_t usable) {
+  struct Group {
+    const char* what;
+    const char* fix;
+    int count = 0;
+    const Candidate* first = nullptr;
+  };
+  std::map<SkipKind, Group> groups{
+      {SkipKind::kUnreadable, {"unreadable", "replace or remove them"}},
+      {SkipKind::kSize, {"of unusable size", "see ingest.max_megapixels, min_image_side, max_aspect_ratio"}},
+      {SkipKind::kGrayscale, {"black-and-white", "set ingest.drop_grayscale: false to keep them"}},
+      {SkipKind::kDuplicate, {"duplicates", "set ingest.drop_duplicates: false to keep them"}}};
+  for (const Candidate& c : candidates) {
+    if (c.ok) continue;
+    Group& g = groups.at(c.kind);
+    if (g.count++ == 0) g.first = &c;
+  }
+  std::string text = "only " + std::to_string(usable) + " usable photo(s) in '" + photo_dir + "' (need at least " +
+                     std::to_string(options.min_photos) + ")";
+  for (const auto& [kind, g] : groups) {
+    if (g.count == 0) continue;
+    std::string example = g.first->reason;
+    if (example.size() > 160) example = example.substr(0, 157) + "...";
+    text += "; " + std::to_string(g.count) + " " + g.what + " (" + g.fix + "), e.g. " + g.first->photo.name + ": " +
+            example;
+  }
+  return text + "; every skipped file and its reason is in the stage log; add more photos of the object or lower "
+                "ingest.min_photos";
+}
 
 std::vector<float> Thumbnail(const Image& image) {
   const Image small = ResizeImage(image, 32, 32);
@@ -72,14 +139,6 @@ double MeanChroma(const Image& image) {
   return count ? sum / count : 0.0;
 }
 
-bool LooksLikeImageFile(const fs::path& p) {
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-  static const char* kKnown[] = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".exr", ".hdr", ".bmp", ".ppm", ".pgm",
-                                 ".webp"};
-  return std::any_of(std::begin(kKnown), std::end(kKnown), [&](const char* k) { return ext == k; });
-}
-
 Json OptionalToJson(const std::optional<double>& v) { return v ? Json(*v) : Json(nullptr); }
 std::optional<double> JsonToOptional(const Json& j, const char* key) {
   if (!j.contains(key) || j.at(key).is_null()) return std::nullopt;
@@ -118,26 +177,24 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
                         const std::string& ground_truth_dir, const std::string& output_dir) {
   Timer timer;
   IngestSummary summary;
-  if (!fs::is_directory(photo_dir)) {
+  std::error_code ec;
+  if (fs::is_regular_file(photo_dir, ec)) {
+    RELIGHT_USER_ERROR() << "ingest.images: '" << photo_dir
+                         << "' is a file, not a folder; set ingest.images to the folder that holds the photos";
+  }
+  if (!fs::is_directory(photo_dir, ec)) {
     RELIGHT_USER_ERROR() << "photo folder '" << photo_dir << "' does not exist; set ingest.images in the config";
   }
-  std::vector<fs::path> files;
-  auto consider = [&](const fs::directory_entry& e) {
-    const std::string name = e.path().filename().string();
-    if (name.empty() || name[0] == '.') return;
-    if (e.is_regular_file()) files.push_back(e.path());
-  };
-  if (options.recursive) {
-    for (const auto& e : fs::recursive_directory_iterator(photo_dir)) consider(e);
-  } else {
-    for (const auto& e : fs::directory_iterator(photo_dir)) consider(e);
-  }
-  std::sort(files.begin(), files.end());
+  const FileSelection selection = PhotoFileSelection(options.recursive);
+  const std::vector<std::string> files = ListFiles(photo_dir, selection);
   if (files.empty()) {
-    RELIGHT_USER_ERROR() << "photo folder '" << photo_dir
-                         << "' contains no files; put the downloaded photos there (JPEG/PNG/TIFF/EXR/HDR)";
+    std::string extensions;
+    for (const auto& e : selection.extensions) extensions += (extensions.empty() ? "" : " ") + e;
+    RELIGHT_USER_ERROR() << "photo folder '" << photo_dir << "' contains no photos (files ending in " << extensions
+                         << (options.recursive ? "" : "; sub-folders are read only with ingest.recursive: true")
+                         << "); put the downloaded photos there";
   }
-  RLOG_INFO("scanning {} files in {}", files.size(), photo_dir);
+  RLOG_INFO("scanning {} photo files in {}", files.size(), photo_dir);
 
   const std::string image_dir = JoinPath(output_dir, "images");
   EnsureDir(image_dir);
@@ -145,12 +202,24 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
   Progress progress("read photos", static_cast<int64_t>(files.size()));
   tbb::parallel_for(size_t(0), files.size(), [&](size_t i) {
     Candidate& c = candidates[i];
-    const fs::path& path = files[i];
-    c.photo.name = options.recursive ? fs::relative(path, photo_dir).generic_string() : path.filename().string();
-    c.photo.source_path = fs::absolute(path).string();
+    const fs::path path = files[i];
+    c.source = fs::absolute(path).string();
+    // Names and paths as text (core/path_text.h): file names need not be UTF-8, the manifest must be.
+    c.photo.name = PathText(options.recursive ? path.lexically_relative(photo_dir).generic_string()
+                                              : path.filename().string());
+    c.photo.source_path = PathText(c.source);
     try {
+      // Decide on the size from the header, before decoding allocates the pixels.
+      const ImageMetadata header = ReadImageMetadata(c.source);
+      const std::string size_problem = SizeProblem(options, header.width, header.height);
+      if (!size_problem.empty()) {
+        c.kind = SkipKind::kSize;
+        c.reason = size_problem;
+        progress.Advance();
+        return;
+      }
       ImageMetadata meta;
-      Image image = ReadImage(path.string(), &meta, /*apply_orientation=*/true);
+      Image image = ReadImage(c.source, &meta, /*apply_orientation=*/true);
       c.photo.exif = meta;
       c.photo.linear = meta.is_float;
       c.photo.bits_per_sample = meta.bits_per_sample;
@@ -179,13 +248,16 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
       c.photo.height = image.height;
       c.photo.focal_px = FocalPixelsFromExif(meta, c.photo.source_width, c.photo.source_height,
                                              std::max(image.width, image.height));
-      c.photo.sha256 = FileSha256(path.string());
+      c.photo.sha256 = FileSha256(c.source);
       c.thumbnail = Thumbnail(image);
       c.mean_chroma = MeanChroma(image);
       c.image = std::move(image);
       c.ok = true;
     } catch (const UserError& e) {
-      c.reason = LooksLikeImageFile(path) ? e.what() : "not an image file";
+      c.reason = e.what();
+    } catch (const std::bad_alloc&) {
+      c.reason = "out of memory while decoding it; lower ingest.max_megapixels or decode fewer photos at once "
+                 "(--threads)";
     }
     progress.Advance();
   });
@@ -198,6 +270,7 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
     if (!c.ok) continue;
     if (options.drop_grayscale && c.mean_chroma < options.grayscale_chroma) {
       c.ok = false;
+      c.kind = SkipKind::kGrayscale;
       c.reason = "black-and-white photo (mean chroma " + std::to_string(c.mean_chroma) +
                  " < ingest.grayscale_chroma); it carries no colour of the light";
       continue;
@@ -207,6 +280,7 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
         const Candidate& o = candidates[j];
         if (o.photo.sha256 == c.photo.sha256) {
           c.ok = false;
+          c.kind = SkipKind::kDuplicate;
           c.reason = "exact duplicate of " + o.photo.name;
           break;
         }
@@ -217,6 +291,7 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
         for (size_t k = 0; k < c.thumbnail.size(); ++k) corr += double(c.thumbnail[k]) * o.thumbnail[k];
         if (corr > options.duplicate_correlation) {
           c.ok = false;
+          c.kind = SkipKind::kDuplicate;
           c.reason = "near-duplicate of " + o.photo.name + " (thumbnail correlation " + std::to_string(corr) + ")";
           break;
         }
@@ -230,8 +305,10 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
   std::map<std::string, int> used_names;
   for (size_t i : kept) {
     Candidate& c = candidates[i];
+    // The output name is the text of the source name, without path separators or the backslashes of \xHH.
     std::string stem = fs::path(c.photo.name).stem().string();
     std::replace(stem.begin(), stem.end(), '/', '_');
+    std::replace(stem.begin(), stem.end(), '\\', '_');
     const int n = used_names[stem]++;
     if (n > 0) stem += "_" + std::to_string(n);
     const bool is_float = c.photo.linear;
@@ -244,14 +321,14 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
   tbb::parallel_for(size_t(0), kept.size(), [&](size_t k) {
     Candidate& c = candidates[kept[k]];
     const std::string out = JoinPath(output_dir, c.photo.file);
-    std::string source_ext = fs::path(c.photo.source_path).extension().string();
+    std::string source_ext = fs::path(c.source).extension().string();
     std::transform(source_ext.begin(), source_ext.end(), source_ext.begin(), ::tolower);
     if (source_ext == ".jpeg") source_ext = ".jpg";
     const bool untouched = c.photo.scale == 1.0 && c.photo.exif.orientation == 1 &&
                            source_ext == fs::path(out).extension().string() &&
                            c.image.channels == c.photo.exif.channels;
     if (untouched) {
-      WriteFileAtomic(out, ReadFileToString(c.photo.source_path));  // bit-exact copy keeps the JPEG as shot
+      WriteFileAtomic(out, ReadFileToString(c.source));  // bit-exact copy keeps the JPEG as shot
     } else {
       WriteOptions w;
       w.type = c.photo.linear                   ? PixelType::kFloat
@@ -275,13 +352,7 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
     }
   }
   if (static_cast<int>(summary.photos.size()) < options.min_photos) {
-    std::string reasons;
-    for (size_t i = 0; i < summary.skipped.size() && i < 5; ++i) {
-      reasons += "; " + summary.skipped[i].name + ": " + summary.skipped[i].reason;
-    }
-    RELIGHT_USER_ERROR() << "only " << summary.photos.size() << " usable photo(s) in '" << photo_dir << "' (need at least "
-                         << options.min_photos << ", " << summary.skipped.size() << " skipped" << reasons
-                         << "); add more photos of the object or lower ingest.min_photos";
+    throw UserError(TooFewPhotosMessage(options, photo_dir, candidates, summary.photos.size()));
   }
 
   if (!ground_truth_dir.empty()) {
@@ -295,7 +366,7 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
   OrderedJson manifest;
   manifest["format"] = "relight-ingest-manifest";
   manifest["version"] = 1;
-  manifest["source_folder"] = fs::absolute(photo_dir).string();
+  manifest["source_folder"] = PathText(fs::absolute(photo_dir).string());
   manifest["ground_truth"] = ground_truth_dir.empty() ? Json(nullptr) : Json("ground_truth");
   OrderedJson photos = OrderedJson::array();
   for (const auto& p : summary.photos) {

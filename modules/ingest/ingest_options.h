@@ -5,13 +5,21 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/fs.h"
 #include "core/options.h"
 #include "core/stage.h"
 
 namespace relight {
 
 inline const StageInfo kIngestStage{
-    "ingest", "Scan the photo folder: read EXIF, fix orientation, downscale, drop unusable photos", 1};
+    "ingest", "Scan the photo folder: read EXIF, fix orientation, downscale, drop unusable photos", 2};
+
+// The files ingest reads from ingest.images: photos by extension (any case),
+// not hidden, in sub-folders only when `recursive`. The cache key digests the
+// same files, so a stray notes.txt or Thumbs.db reruns nothing.
+inline FileSelection PhotoFileSelection(bool recursive) {
+  return {recursive, {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".exr", ".hdr", ".bmp", ".ppm", ".pgm", ".webp"}};
+}
 
 struct IngestOptions {
   std::string images;                // Photo folder; empty when the synthesize stage provides the photos.
@@ -26,10 +34,16 @@ struct IngestOptions {
   double grayscale_chroma = 0.01;    // Mean chroma (max-min of RGB, encoded) below which a photo is grayscale.
   bool drop_duplicates = true;       // Drop exact and near-duplicate photos (keeps the first by name).
   double duplicate_correlation = 0.995;  // Thumbnail correlation above which two photos are near-duplicates.
+  double max_megapixels = 250;       // Photos whose header claims more pixels are skipped before decoding.
+  int min_image_side = 64;           // Photos whose shorter side (after downscaling) is smaller are skipped.
+  double max_aspect_ratio = 10;      // Photos longer than this many times their width are skipped.
 
   void Declare(OptionTable* t) {
-    t->Add("images", &images, "Photo folder (JPEG/PNG/TIFF/EXR/HDR). Empty when the synthesize stage runs.")
-        .InputDir();
+    t->Add("images", &images,
+           "Photo folder (JPEG/PNG/TIFF/EXR/HDR/BMP/PPM/PGM/WebP, by file extension; other files are not read). "
+           "Empty when the synthesize stage runs.")
+        .InputDir()
+        .Reads([this] { return PhotoFileSelection(recursive); });
     t->Add("format", &format,
            "What ingest.images holds: photos (any folder of photos), or diligent (a DiLiGenT object folder: the "
            "photos, known lights and mask become a scene with ground truth, docs/RESULTS.md).")
@@ -54,6 +68,19 @@ struct IngestOptions {
     t->Add("duplicate_correlation", &duplicate_correlation,
            "Thumbnail correlation above which two photos count as near-duplicates.")
         .Range(0, 1);
+    t->Add("max_megapixels", &max_megapixels,
+           "Photos whose header claims more pixels than this (in millions) are skipped before decoding, with a "
+           "reason: a damaged or hostile header cannot exhaust memory. Decoding takes about 12 bytes per pixel; "
+           "raise it for gigapixel panoramas on a machine with the memory.")
+        .Min(1);
+    t->Add("min_image_side", &min_image_side,
+           "Photos whose shorter side, after downscaling to max_image_size, is below this many pixels are skipped "
+           "(SIFT finds next to no features in them). Lower it only for tiny test images.")
+        .Min(1);
+    t->Add("max_aspect_ratio", &max_aspect_ratio,
+           "Photos whose longer side exceeds this multiple of the shorter one (strips, banners, broken headers) "
+           "are skipped; raise it to keep wide panoramas, which COLMAP's pinhole cameras model poorly anyway.")
+        .Min(1);
   }
   void Check() const {}
 };

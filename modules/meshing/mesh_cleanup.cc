@@ -11,9 +11,12 @@
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Polygon_mesh_processing/repair_degeneracies.h>
+#include <CGAL/Polygon_mesh_processing/repair.h>
 #include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh.h>
+#include <CGAL/boost/graph/helpers.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 
@@ -45,7 +48,16 @@ SurfaceMesh ToSurfaceMesh(const TriangleMesh& input, MeshCleanupSummary* summary
   for (const auto& v : input.vertices) points.emplace_back(v.x(), v.y(), v.z());
   std::vector<std::vector<std::size_t>> polygons;
   polygons.reserve(input.faces.size());
-  for (const auto& f : input.faces) polygons.push_back({size_t(f[0]), size_t(f[1]), size_t(f[2])});
+  // Faces with an index out of range or on a non-finite vertex are dropped:
+  // CGAL's predicates and AABB trees assume finite coordinates.
+  const auto usable = [&](int i) { return i >= 0 && size_t(i) < input.vertices.size() && input.vertices[i].allFinite(); };
+  for (const auto& f : input.faces) {
+    if (usable(f[0]) && usable(f[1]) && usable(f[2])) {
+      polygons.push_back({size_t(f[0]), size_t(f[1]), size_t(f[2])});
+    } else {
+      ++summary->invalid_faces_removed;
+    }
+  }
 
   const size_t points_before = points.size(), polygons_before = polygons.size();
   PMP::repair_polygon_soup(points, polygons);
@@ -196,6 +208,80 @@ void Decimate(SurfaceMesh* mesh, size_t target_vertices) {
   mesh->collect_garbage();
 }
 
+// Removes `doomed` faces, then the vertices left without a face, and splits
+// the vertices removal made non-manifold.
+void RemoveFaces(const std::vector<Face>& doomed, SurfaceMesh* mesh, MeshCleanupSummary* summary) {
+  for (Face f : doomed) {
+    if (!mesh->is_removed(f)) CGAL::Euler::remove_face(mesh->halfedge(f), *mesh);
+  }
+  PMP::remove_isolated_vertices(*mesh);
+  mesh->collect_garbage();
+  summary->non_manifold_points_duplicated += PMP::duplicate_non_manifold_vertices(*mesh);
+}
+
+// Removes faces on non-finite points, degenerate faces and the vertices they
+// leave, and splits non-manifold vertices. Hole filling can produce all of
+// them: fairing a large hole (issue 34: mesh.max_hole_edges 5000,
+// max_hole_fraction 1 on a poor MVS surface) may place vertices at infinity
+// or NaN, and CGAL's later steps assume finite, valid input.
+void RemoveInvalidFaces(SurfaceMesh* mesh, MeshCleanupSummary* summary) {
+  // Non-finite points (a failed fairing solve) and the faces on them.
+  const auto finite = [&](SurfaceMesh::Vertex_index v) {
+    const Point& p = mesh->point(v);
+    return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z());
+  };
+  std::vector<Face> doomed;
+  for (auto v : mesh->vertices()) {
+    if (finite(v) || mesh->halfedge(v) == SurfaceMesh::null_halfedge()) continue;
+    for (Face f : CGAL::faces_around_target(mesh->halfedge(v), *mesh)) {
+      if (f != SurfaceMesh::null_face()) doomed.push_back(f);
+    }
+  }
+  std::sort(doomed.begin(), doomed.end());
+  doomed.erase(std::unique(doomed.begin(), doomed.end()), doomed.end());
+  summary->invalid_faces_removed += doomed.size();
+  RemoveFaces(doomed, mesh, summary);  // also removes the vertices left on no face
+
+  // Degenerate faces (collinear or coincident corners), then pinched vertices.
+  const size_t faces_before = mesh->number_of_faces();
+  PMP::remove_degenerate_faces(*mesh);
+  mesh->collect_garbage();
+  summary->degenerate_faces_removed += faces_before - mesh->number_of_faces();
+  summary->non_manifold_points_duplicated += PMP::duplicate_non_manifold_vertices(*mesh);
+}
+
+// Brings the mesh into the state CGAL's isotropic remeshing assumes (a valid
+// triangle mesh: finite points, no degenerate faces, manifold vertices, no
+// self-intersections: a hole patch folded through the surface is the typical
+// one); remeshing other input can segfault. Returns "" when the mesh can be
+// remeshed, else why not (then it is only decimated).
+std::string PrepareForRemeshing(SurfaceMesh* mesh, MeshCleanupSummary* summary) {
+  RemoveInvalidFaces(mesh, summary);
+  // Self-intersections: both faces of every intersecting pair go; the holes
+  // they leave are remeshed like any border.
+  for (int round = 0; round < 3 && mesh->number_of_faces() > 0; ++round) {
+    std::vector<std::pair<Face, Face>> pairs;
+    PMP::self_intersections(faces(*mesh), *mesh, std::back_inserter(pairs));
+    if (pairs.empty()) break;
+    std::vector<Face> crossing;
+    for (const auto& [a, b] : pairs) {
+      crossing.push_back(a);
+      crossing.push_back(b);
+    }
+    std::sort(crossing.begin(), crossing.end());
+    crossing.erase(std::unique(crossing.begin(), crossing.end()), crossing.end());
+    summary->self_intersecting_faces_removed += crossing.size();
+    RemoveFaces(crossing, mesh, summary);
+    PMP::remove_degenerate_faces(*mesh);
+    mesh->collect_garbage();
+  }
+
+  if (mesh->number_of_faces() == 0) return "no face is left after removing invalid ones";
+  if (!CGAL::is_triangle_mesh(*mesh) || !CGAL::is_valid_polygon_mesh(*mesh)) return "the mesh is not a valid triangle mesh";
+  if (PMP::does_self_intersect(*mesh)) return "self-intersections remain after three rounds of removal";
+  return "";
+}
+
 void Resample(const MeshCleanupOptions& options, SurfaceMesh* mesh, MeshCleanupSummary* summary) {
   if (options.target_vertices <= 0) return;
   const size_t target = static_cast<size_t>(options.target_vertices);
@@ -212,9 +298,17 @@ void Resample(const MeshCleanupOptions& options, SurfaceMesh* mesh, MeshCleanupS
   }
   // Remeshing a huge input directly is slow: collapse to twice the budget first.
   if (mesh->number_of_vertices() > 4 * target) Decimate(mesh, 2 * target);
+  const std::string invalid = PrepareForRemeshing(mesh, summary);
   // Equilateral triangles of side L, F ≈ 2V faces: A = 2V · (√3/4) L².
-  const double area = PMP::area(*mesh);
+  const double area = invalid.empty() ? PMP::area(*mesh) : 0.0;
   double length = std::sqrt(2.0 * area / (std::sqrt(3.0) * double(target)));
+  if (!invalid.empty() || !std::isfinite(length) || length <= 0) {
+    summary->remesh_skipped = invalid.empty() ? "the surface has no area" : invalid;
+    RLOG_WARN("isotropic remeshing skipped ({}); decimating only", summary->remesh_skipped);
+    Decimate(mesh, target);
+    ++summary->resample_passes;
+    return;
+  }
   for (int pass = 0; pass < 5; ++pass) {
     PMP::isotropic_remeshing(faces(*mesh), length, *mesh,
                              CGAL::parameters::number_of_iterations(options.remesh_iterations));
@@ -223,7 +317,7 @@ void Resample(const MeshCleanupOptions& options, SurfaceMesh* mesh, MeshCleanupS
     summary->target_edge_length = length;
     RLOG_DEBUG("remeshing pass {}: edge length {:.5g} -> {} vertices (target {})", pass + 1, length,
                mesh->number_of_vertices(), target);
-    if (within()) break;
+    if (within() || mesh->number_of_vertices() == 0) break;
     length *= std::sqrt(double(mesh->number_of_vertices()) / target);
   }
 }
@@ -256,7 +350,11 @@ TriangleMesh CleanMesh(const TriangleMesh& input, const MeshCleanupOptions& opti
 
   KeepLargestComponents(options, &mesh, summary);
   lap("components");
-  if (options.max_hole_edges > 0) FillSmallHoles(options, &mesh, summary);
+  if (options.max_hole_edges > 0) {
+    FillSmallHoles(options, &mesh, summary);
+    RemoveInvalidFaces(&mesh, summary);
+    if (mesh.number_of_faces() == 0) RELIGHT_USER_ERROR() << where << ": no valid triangle is left after filling holes";
+  }
   lap("holes");
   Resample(options, &mesh, summary);
   lap("resample");

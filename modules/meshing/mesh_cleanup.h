@@ -10,8 +10,10 @@
 // (triangulate, refine, fair); edge-collapse decimation and isotropic
 // remeshing to the target vertex count; outward orientation of closed
 // components. All CGAL code of the project lives in mesh_cleanup.cc (compile time).
-// Not done: self-intersection removal (CGAL's is experimental and slow); a
-// Poisson surface has none by construction.
+// Before remeshing, what hole filling may have broken is repaired: faces on
+// non-finite points, degenerate faces, non-manifold vertices, and both faces
+// of each self-intersecting pair are removed (CGAL's isotropic remeshing
+// crashes on such input); a mesh that still is not valid is only decimated.
 #pragma once
 
 #include <string>
@@ -50,6 +52,8 @@ struct MeshCleanupSummary {
   size_t soup_polygons_removed = 0;           // degenerate / duplicate polygons
   size_t non_manifold_points_duplicated = 0;  // points split to make edges and vertices manifold
   size_t degenerate_faces_removed = 0;
+  size_t invalid_faces_removed = 0;            // on non-finite or out-of-range vertices
+  size_t self_intersecting_faces_removed = 0;  // before remeshing
   int components_found = 0;
   std::string component_ranking = "area";  // "support" (data points) or "area"
   int components_removed = 0;
@@ -59,6 +63,7 @@ struct MeshCleanupSummary {
   size_t hole_faces_added = 0;
   double target_edge_length = 0;  // remeshing edge length (mesh units), 0 when not remeshed
   int resample_passes = 0;
+  std::string remesh_skipped;  // why isotropic remeshing was replaced by decimation ("" when it ran)
   bool closed = false;                // every kept component is closed
   bool orientation_reversed = false;  // closed mesh whose faces pointed inward
   size_t output_vertices = 0;

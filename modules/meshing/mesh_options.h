@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kMeshStage{
-    "mesh", "Mesh clean-up (CGAL): largest parts, holes, cropping, remeshing to a vertex budget, outward normals", 3};
+    "mesh", "Mesh clean-up (CGAL): largest parts, holes, cropping, remeshing to a vertex budget, outward normals", 4};
 
 struct MeshOptions {
   std::string source = "mvs";        // mvs: <mvs>/meshed.ply; file: mesh.file; ground_truth: <ingest>/ground_truth.

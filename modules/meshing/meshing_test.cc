@@ -150,6 +150,33 @@ TEST(MeshCleanup, DamagedSphereBecomesOneClosedManifoldWithTheRequestedVertexCou
   }
 }
 
+TEST(MeshCleanup, InvalidInputIsRepairedBeforeRemeshing) {
+  // Issue 34: CGAL's isotropic remeshing segfaulted on a poor surface. Here a sphere carries what makes it
+  // crash or misbehave: one vertex pulled through to the far side (its fan pierces the surface), a face on a NaN
+  // vertex, a face with an index out of range and a zero-area face, cleaned with hole filling as loose as
+  // configs/temple.yaml's. The result must be a finite manifold near the sphere, and the summary must count
+  // what was removed.
+  TriangleMesh input = Icosphere(4);
+  const int n = static_cast<int>(input.vertices.size());
+  input.vertices[0] *= -1.3f;  // its fan now spans the sphere and pierces the far side
+  input.vertices.emplace_back(std::nanf(""), 0.0f, 0.0f);
+  input.faces.emplace_back(1, 2, n);
+  input.faces.emplace_back(1, 2, n + 100);
+  input.faces.emplace_back(3, 3, 4);
+  MeshCleanupOptions options;
+  options.target_vertices = 1500;
+  options.max_hole_edges = 5000;
+  options.max_hole_fraction = 1.0;
+  MeshCleanupSummary summary;
+  const TriangleMesh out = CleanMesh(input, options, "pierced sphere", &summary);
+  EXPECT_GE(summary.invalid_faces_removed, 2u);  // the NaN face and the out-of-range face
+  EXPECT_GE(summary.self_intersecting_faces_removed, 2u);  // the fan and the far-side faces it crosses
+  for (const auto& v : out.vertices) ASSERT_TRUE(v.allFinite());
+  EXPECT_EQ(FindManifoldViolation(out), "");
+  EXPECT_NEAR(double(out.vertices.size()), 1500, 150);
+  EXPECT_LT(MaxRadialError(out), 0.05);
+}
+
 TEST(MeshCleanup, InwardSphereIsTurnedOutward) {
   TriangleMesh input = Icosphere(4);
   for (auto& f : input.faces) std::swap(f[1], f[2]);

@@ -37,13 +37,17 @@ ColmapMat DecodeColmapMat(const std::string& bytes, const std::string& where) {
     if (d <= 0) RELIGHT_USER_ERROR() << "'" << where << "' has a bad size in its header; delete it and rerun";
     pos = amp + 1;
   }
-  ColmapMat mat(static_cast<int>(dims[0]), static_cast<int>(dims[1]), static_cast<int>(dims[2]));
-  const size_t expected = mat.data.size() * sizeof(float);
-  if (bytes.size() - pos != expected) {
-    RELIGHT_USER_ERROR() << "'" << where << "' holds " << bytes.size() - pos << " data bytes, expected " << expected
-                         << " for " << dims[0] << "x" << dims[1] << "x" << dims[2]
+  // Sizes are checked against the data before anything is allocated (a damaged header may claim terabytes).
+  const size_t values = (bytes.size() - pos) / sizeof(float);
+  const bool fits = size_t(dims[0]) <= values && size_t(dims[1]) <= values / size_t(dims[0]) &&
+                    size_t(dims[2]) <= values / (size_t(dims[0]) * size_t(dims[1]));
+  const size_t expected = fits ? size_t(dims[0]) * size_t(dims[1]) * size_t(dims[2]) * sizeof(float) : 0;
+  if (!fits || bytes.size() - pos != expected) {
+    RELIGHT_USER_ERROR() << "'" << where << "' holds " << bytes.size() - pos << " data bytes, not the "
+                         << "4 bytes per value of " << dims[0] << "x" << dims[1] << "x" << dims[2]
                          << " (truncated?); delete it and rerun the mvs stage";
   }
+  ColmapMat mat(static_cast<int>(dims[0]), static_cast<int>(dims[1]), static_cast<int>(dims[2]));
   std::memcpy(mat.data.data(), bytes.data() + pos, expected);
   return mat;
 }

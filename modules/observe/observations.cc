@@ -59,7 +59,8 @@ ObservationSet ReadObservations(const std::string& path) {
   get(&set.num_vertices, 4);
   get(&count, 8);
   const size_t record_bytes = version == 1 ? 36 : version <= 3 ? 40 : 44;  // 1 had no flags, 4 added kernel_scale
-  if (data.size() - pos != count * record_bytes) damaged("size does not match the record count");
+  const size_t body = data.size() - pos;  // compared by division: count * record_bytes may overflow
+  if (body % record_bytes != 0 || count != body / record_bytes) damaged("size does not match the record count");
   set.records.resize(count);
   for (Observation& o : set.records) {
     get(&o.photo, 4);

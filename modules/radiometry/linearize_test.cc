@@ -95,7 +95,9 @@ TEST(LinearizeTest, StageWritesOutputsNormalizesExposureAndResumes) {
     WriteImage(dir / ("photos/p" + std::to_string(k) + ".png"), enc, {PixelType::kUint16, 95, &exif});
   }
   // PNG has no EXIF: write the manifest's exposure by hand through ingest, then patch it.
-  RunIngest(IngestOptions{}, dir / "photos", "", dir / "ingest");
+  IngestOptions ingest_options;
+  ingest_options.min_image_side = 8;  // tiny test photos
+  RunIngest(ingest_options, dir / "photos", "", dir / "ingest");
   Json manifest = ReadJsonFile(dir / "ingest/manifest.json");
   for (int k = 0; k < 3; ++k) {
     manifest["photos"][k]["exif"]["exposure_time_s"] = k == 1 ? 0.02 : 0.01;

@@ -315,16 +315,35 @@ std::vector<RenderRecord> ReadRenderIndex(const std::string& relight_dir, std::s
   return out;
 }
 
+std::vector<EnvMap> LoadRelightEnvmaps(const std::vector<std::string>& paths) {
+  std::vector<EnvMap> maps;
+  for (const auto& path : paths) {
+    std::error_code ec;
+    if (fs::is_directory(path, ec)) {
+      RELIGHT_USER_ERROR() << "relight.envmaps: '" << path << "' is a folder; list the map files in it (.exr/.hdr), "
+                           << "one entry each";
+    }
+    if (!fs::is_regular_file(path, ec)) {
+      const bool blender = path.rfind("/usr/share/blender/", 0) == 0;
+      RELIGHT_USER_ERROR() << "relight.envmaps: '" << path << "' does not exist; "
+                           << (blender ? "install Debian's blender-data (tools/setup_debian.sh) or list other maps"
+                                       : "fix the path (relative to the config file) or remove the entry");
+    }
+    try {
+      maps.push_back(EnvMap::Load(path));
+    } catch (const UserError& e) {
+      throw UserError(std::string("relight.envmaps: ") + e.what() + "; or remove the entry from relight.envmaps");
+    }
+  }
+  return maps;
+}
+
 RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, const std::string& output_dir) {
   o.Check();
   Timer total;
   RelightSummary summary;
-  for (const auto& path : o.envmaps) {
-    if (!fs::is_regular_file(path)) {
-      RELIGHT_USER_ERROR() << "relight.envmaps: '" << path << "' does not exist; install Debian's blender-data "
-                           << "(tools/setup_debian.sh) or list other lat-long HDR maps (relative to the config file)";
-    }
-  }
+  // The new lights, read before any rendering: a bad entry fails the stage at once, naming it.
+  const std::vector<EnvMap> file_maps = LoadRelightEnvmaps(o.envmaps);
   const RecoveredModel model = LoadRecoveredModel(in.inverse_dir, in.mesh_dir);
   const Scene scene(ModelSurfaces(model.mesh, model.reflectance, model.occluders, o.occluder_albedo),
                     JoinPath(in.inverse_dir, "reflectance.ply"));
@@ -449,11 +468,12 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   std::vector<std::pair<std::string, std::shared_ptr<const Lighting>>> file_lights;
   {
     std::set<std::string> used;
-    for (const auto& path : o.envmaps) {
+    for (size_t m = 0; m < o.envmaps.size(); ++m) {
+      const std::string& path = o.envmaps[m];
       std::string name = Stem(path);
       for (int k = 2; used.count(name); ++k) name = Stem(path) + "_" + std::to_string(k);
       used.insert(name);
-      file_lights.emplace_back(name, EnvLighting(EnvMap::Load(path)));
+      file_lights.emplace_back(name, EnvLighting(file_maps[m]));
     }
   }
   uint64_t novel_index = 0;

@@ -30,6 +30,7 @@
 #include "relight/relight_options.h"
 #include "relight/views.h"
 #include "render/scene.h"
+#include "sphere/envmap.h"
 
 namespace relight {
 
@@ -110,5 +111,10 @@ struct RelightInputs {
 
 // Runs the stage into `output_dir` (which exists).
 RelightSummary RunRelight(const RelightOptions& options, const RelightInputs& inputs, const std::string& output_dir);
+
+// Reads the maps of relight.envmaps (before anything is rendered). Throws
+// UserError naming the entry when it is missing, a folder, unreadable, not
+// 2:1 or holds NaN/negative radiance (EnvMap::Load).
+std::vector<EnvMap> LoadRelightEnvmaps(const std::vector<std::string>& paths);
 
 }  // namespace relight

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
 #include "core/log.h"
@@ -52,6 +53,33 @@ TEST(Display, PercentileExposureAndSrgbCurve) {
     for (int x = 2; x < 8; ++x) block.at(x, y) = 1;
   EXPECT_EQ(CountMask(ErodeMask(block, 1)), 16u);
   EXPECT_EQ(CountMask(ErodeMask(block, 0)), 36u);
+}
+
+using testing::ErrorOf;
+
+TEST(Envmaps, EntriesThatAreNotUsableMapsNameTheEntryAndWhatToDo) {
+  testing::TempDir dir;
+  fs::create_directories(dir / "maps");
+  EXPECT_EQ(ErrorOf([&] { LoadRelightEnvmaps({dir / "maps"}); }),
+            "relight.envmaps: '" + (dir / "maps") + "' is a folder; list the map files in it (.exr/.hdr), one entry each");
+  EXPECT_EQ(ErrorOf([&] { LoadRelightEnvmaps({dir / "sky.exr"}); }),
+            "relight.envmaps: '" + (dir / "sky.exr") +
+                "' does not exist; fix the path (relative to the config file) or remove the entry");
+  std::ofstream(dir / "text.exr") << "not an image";
+  const std::string unreadable = ErrorOf([&] { LoadRelightEnvmaps({dir / "text.exr"}); });
+  EXPECT_EQ(unreadable.rfind("relight.envmaps: '" + (dir / "text.exr") + "' is not a readable image (", 0), 0u)
+      << unreadable;
+  EXPECT_EQ(unreadable.find("folder"), std::string::npos) << unreadable;  // said "remove it from the folder"
+  Image map(16, 8, 3, 1.0f);
+  map.at(3, 2, 0) = std::nanf("");
+  WriteImage(dir / "nan.exr", map, {PixelType::kFloat});
+  EXPECT_EQ(ErrorOf([&] { LoadRelightEnvmaps({dir / "nan.exr"}); }),
+            "relight.envmaps: environment map " + (dir / "nan.exr") +
+                " has 1 NaN, infinite or negative value (the first at pixel (3, 2), channel 0: nan); radiance must be "
+                "finite and >= 0: clamp or replace the map; or remove the entry from relight.envmaps");
+  map.at(3, 2, 0) = 1.0f;
+  WriteImage(dir / "good.exr", map, {PixelType::kFloat});
+  EXPECT_EQ(LoadRelightEnvmaps({dir / "good.exr"}).size(), 1u);
 }
 
 TEST(Views, OrbitCameraFramesTheBoundingSphere) {

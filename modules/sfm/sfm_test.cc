@@ -48,14 +48,7 @@ Image NoiseImage(int width, int height, uint32_t seed) {
 
 float SrgbToLinear(float v) { return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f); }
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const UserError& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::ErrorOf;
 
 TEST(Middlebury, ReadsTempleCameras) {
   const Reconstruction truth = TempleTruth();

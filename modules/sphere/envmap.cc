@@ -62,6 +62,22 @@ EnvMap EnvMap::Load(const std::string& path) {
     RELIGHT_USER_ERROR() << "environment map " << path << " is " << image.width << "x" << image.height
                          << ", not a 2:1 lat-long image: convert it to an equirectangular (lat-long) map";
   }
+  // Radiance is finite and non-negative; one NaN texel turns every render that samples it into NaN.
+  size_t bad = 0, first = 0;
+  for (size_t i = 0; i < image.pixels.size(); ++i) {
+    const float v = image.pixels[i];
+    if (!std::isfinite(v) || v < 0.0f) {
+      if (bad++ == 0) first = i;
+    }
+  }
+  if (bad > 0) {
+    const size_t pixel = first / image.channels;
+    RELIGHT_USER_ERROR() << "environment map " << path << " has " << bad << " NaN, infinite or negative "
+                         << (bad == 1 ? "value" : "values") << " (the first at pixel ("
+                         << pixel % image.width << ", " << pixel / image.width << "), channel "
+                         << first % image.channels << ": " << image.pixels[first]
+                         << "); radiance must be finite and >= 0: clamp or replace the map";
+  }
   return FromLatLong(std::move(image));
 }
 

@@ -29,7 +29,8 @@ class EnvMap {
   static EnvMap FromLatLong(Image image);
   // Wraps an octahedral RGB image (square, side a power of two).
   static EnvMap FromOctahedral(Image image);
-  // Reads a lat-long .hdr/.exr; throws UserError naming the file if unreadable or not 2:1.
+  // Reads a lat-long .hdr/.exr; throws UserError naming the file if unreadable, not 2:1, or
+  // holding NaN, infinite or negative values.
   static EnvMap Load(const std::string& path);
 
   // Storage layout.

@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "core/error.h"
@@ -248,6 +249,40 @@ TEST(EnvMapTest, LoadRejectsBadFilesWithTheirName) {
   } catch (const UserError& e) {
     EXPECT_NE(std::string(e.what()).find("missing.hdr"), std::string::npos) << e.what();
   }
+}
+
+TEST(EnvMapTest, LoadRejectsNanAndNegativeRadianceNamingFileAndPixel) {
+  testing::TempDir dir;
+  WriteOptions options;
+  options.type = PixelType::kFloat;
+  Image nan_map(16, 8, 3, 0.5f);
+  nan_map.at(5, 3, 1) = std::numeric_limits<float>::quiet_NaN();
+  nan_map.at(6, 3, 0) = std::numeric_limits<float>::quiet_NaN();
+  WriteImage(dir / "nan.exr", nan_map, options);
+  try {
+    EnvMap::Load(dir / "nan.exr");  // was accepted: every render sampling it was NaN
+    FAIL() << "expected UserError";
+  } catch (const UserError& e) {
+    EXPECT_EQ(std::string(e.what()), "environment map " + (dir / "nan.exr") +
+                                         " has 2 NaN, infinite or negative values (the first at pixel "
+                                         "(5, 3), channel 1: nan); radiance must be finite and >= 0: clamp or "
+                                         "replace the map");
+  }
+  Image negative(16, 8, 3, 0.5f);
+  negative.at(0, 7, 2) = -0.25f;
+  WriteImage(dir / "negative.exr", negative, options);
+  try {
+    EnvMap::Load(dir / "negative.exr");
+    FAIL() << "expected UserError";
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("has 1 NaN, infinite or negative value (the first at pixel (0, 7), "
+                                         "channel 2: -0.25)"),
+              std::string::npos)
+        << e.what();
+  }
+  Image fine(16, 8, 3, 0.0f);  // zero radiance is allowed
+  WriteImage(dir / "zero.exr", fine, options);
+  EXPECT_NO_THROW(EnvMap::Load(dir / "zero.exr"));
 }
 
 TEST(EnvMapTest, SaveAndReload) {

@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include "core/error.h"
+
 namespace relight::testing {
 
 // Root of the source checkout (RELIGHT_SOURCE_DIR, set by CTest).
@@ -33,5 +35,16 @@ class TempDir {
 // Runs `command` through /bin/sh, capturing stdout and stderr together into
 // `output` (if given). Returns the exit status (128+signal when killed).
 int RunCommand(const std::string& command, std::string* output = nullptr);
+
+// The message of the UserError `f` throws ("" when it throws none; any other exception fails the test).
+template <typename F>
+std::string ErrorOf(F f) {
+  try {
+    f();
+  } catch (const UserError& e) {
+    return e.what();
+  }
+  return "";
+}
 
 }  // namespace relight::testing
