@@ -1,5 +1,6 @@
 #include "mvs/mvs.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <cmath>
 #include <functional>
@@ -33,6 +34,12 @@ constexpr const char* kPhotometric = "photometric";
 constexpr const char* kGeometric = "geometric";
 // Geometric-pass maps before filtering (not read by COLMAP).
 constexpr const char* kGeometricUnfiltered = "geometric_unfiltered";
+
+// Maps of geometric iteration `k` (1-based) of `n`: the last one's are the unfiltered geometric maps; the
+// earlier ones are kept until the last is complete, so a killed run resumes at the iteration it was in.
+std::string GeometricIterationType(int k, int n) {
+  return k == n ? std::string(kGeometricUnfiltered) : std::string(kGeometricUnfiltered) + "_" + std::to_string(k);
+}
 
 // FNV-1a of the image name: a random stream per image that does not depend on processing order.
 uint64_t NameSeed(const std::string& name) {
@@ -227,7 +234,7 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
   const auto run_pass = [&](const std::string& type, const std::string& label,
                             const std::function<DepthNormalMap(int r, MvsImageReport* report)>& compute) {
     Progress progress(label, static_cast<int64_t>(refs.size()));
-    int done = 0;
+    int done = 0, reused = 0;
     for (int r : refs) {
       ++done;
       MvsImageReport& report = summary->images[r];
@@ -238,6 +245,7 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
           report.reused = true;
           ++summary->num_reused;
         }
+        ++reused;
         progress.Advance();
         continue;
       }
@@ -251,6 +259,8 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
                 report.mean_cost, 100 * report.valid_fraction, timer.Seconds());
       progress.Advance();
     }
+    // A resumed run says what it did not recompute.
+    if (reused > 0) RLOG_INFO("{}: {} of {} images reused from an earlier run", label, reused, refs.size());
   };
   // The `type` maps of the sources of `r` (nullptr where missing), owned by `storage`.
   const auto source_maps = [&](int r, const std::string& type, std::vector<std::unique_ptr<DepthNormalMap>>* storage,
@@ -276,20 +286,36 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
     return map;
   });
   if (options.geom_consistency) {
-    // Pass 2: PatchMatch with the reprojection error against the sources' photometric maps.
-    run_pass(kGeometricUnfiltered, "geometric depth maps", [&](int r, MvsImageReport* report) {
-      PatchMatchProblem problem = problem_for(r);
-      std::vector<std::unique_ptr<DepthNormalMap>> storage;
-      source_maps(r, kPhotometric, &storage, &problem);
-      const DepthNormalMap own = workspace.ReadMaps(views[r], kPhotometric);
-      PatchMatchStats stats;
-      DepthNormalMap map = RunPatchMatch(options, problem, /*geometric=*/true, options.geom_iterations, &own,
-                                         options.num_iterations, CostKernel::kVectorized, &stats);
-      report->seconds_geometric = stats.seconds;
-      report->mean_cost = stats.mean_cost;
-      report->valid_fraction = map.ValidFraction();
-      return map;
+    // Pass 2: PatchMatch with the reprojection error against the sources' maps, one iteration at a time: each
+    // starts from the image's own maps of the iteration before and matches against its sources' maps of the
+    // iteration before (the photometric ones first). Sources that improved in one iteration so help the next;
+    // iterating against fixed photometric maps instead gains little.
+    const int n = options.geom_iterations;
+    const bool last_done = std::all_of(refs.begin(), refs.end(), [&](int r) {
+      return workspace.HasMaps(views[r].name, kGeometricUnfiltered) &&
+             fs::exists(workspace.ReportPath(views[r].name, kGeometricUnfiltered));
     });
+    for (int k = last_done ? n : 1; k <= n; ++k) {
+      const std::string previous = k == 1 ? std::string(kPhotometric) : GeometricIterationType(k - 1, n);
+      const std::string label = n == 1 ? std::string("geometric depth maps")
+                                       : "geometric depth maps " + std::to_string(k) + "/" + std::to_string(n);
+      run_pass(GeometricIterationType(k, n), label, [&](int r, MvsImageReport* report) {
+        PatchMatchProblem problem = problem_for(r);
+        std::vector<std::unique_ptr<DepthNormalMap>> storage;
+        source_maps(r, previous, &storage, &problem);
+        const DepthNormalMap own = workspace.ReadMaps(views[r], previous);
+        PatchMatchStats stats;
+        DepthNormalMap map = RunPatchMatch(options, problem, /*geometric=*/true, 1, &own,
+                                           options.num_iterations + k - 1, CostKernel::kVectorized, &stats);
+        report->seconds_geometric = (k == 1 ? 0.0 : report->seconds_geometric) + stats.seconds;
+        report->mean_cost = stats.mean_cost;
+        report->valid_fraction = map.ValidFraction();
+        return map;
+      });
+    }
+    for (int k = 1; k < n; ++k) {
+      for (int r : refs) workspace.RemoveMaps(views[r].name, GeometricIterationType(k, n));
+    }
     // Pass 3: keep pixels that the sources' geometric maps confirm.
     run_pass(kGeometric, "filtering", [&](int r, MvsImageReport* report) {
       PatchMatchProblem problem = problem_for(r);

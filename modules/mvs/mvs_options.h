@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kMvsStage{
-    "mvs", "Dense geometry: CPU PatchMatch multi-view stereo, COLMAP stereo fusion and Poisson meshing", 4};
+    "mvs", "Dense geometry: CPU PatchMatch multi-view stereo, COLMAP stereo fusion and Poisson meshing", 5};
 
 struct MvsOptions {
   // --- engine and resolution
@@ -36,8 +36,9 @@ struct MvsOptions {
   // --- PatchMatch iterations (red-black propagation + random refinement)
   int num_iterations = 3;             // Photometric iterations (each updates every pixel twice: black, red).
   bool geom_consistency = true;       // Second pass adding forward-backward reprojection error (COLMAP's geometric).
-  int geom_iterations = 1;            // Iterations of the geometric pass.
-  double geom_regularizer = 0.3;      // Weight of the reprojection error (pixels) against 1 - NCC.
+  int geom_iterations = 3;            // Iterations of the geometric pass, each against the sources' maps of the
+                                      // one before (the first against their photometric maps).
+  double geom_regularizer = 1.0;      // Weight of the reprojection error (pixels) against 1 - NCC.
   double geom_max_cost_px = 3.0;      // Reprojection errors are truncated at this many pixels.
   double depth_margin = 0.25;         // Depth search range = sparse depths' 1..99 percentiles widened by this fraction.
   int seed = 0;                       // Random seed (results do not depend on the thread count).
@@ -90,8 +91,14 @@ struct MvsOptions {
     t->Add("num_iterations", &num_iterations, "PatchMatch iterations of the photometric pass.").Range(1, 20);
     t->Add("geom_consistency", &geom_consistency,
            "Run a second pass that adds the forward-backward reprojection error against the other depth maps.");
-    t->Add("geom_iterations", &geom_iterations, "PatchMatch iterations of the geometric pass.").Range(1, 20);
-    t->Add("geom_regularizer", &geom_regularizer, "Weight of the reprojection error (pixels) against 1 - NCC.")
+    t->Add("geom_iterations", &geom_iterations,
+           "PatchMatch iterations of the geometric pass; each matches against the sources' depth maps of the one "
+           "before, so views that disagree converge over iterations. Each costs about a third of the photometric "
+           "pass; raise it when lighting or weak texture leaves the photometric maps noisy.")
+        .Range(1, 20);
+    t->Add("geom_regularizer", &geom_regularizer,
+           "Weight of the reprojection error (pixels) against 1 - NCC in the geometric pass; higher trusts the "
+           "other views' depths more than the photometric match.")
         .Min(0);
     t->Add("geom_max_cost_px", &geom_max_cost_px, "Reprojection errors are truncated at this many pixels.").Min(0.1);
     t->Add("depth_margin", &depth_margin,

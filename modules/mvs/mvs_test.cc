@@ -1,7 +1,9 @@
 // Unit tests of the mvs module: COLMAP map format, pixel conventions, the NCC
 // cost against its plain reference, PatchMatch on a fronto-parallel plane
-// (exact depth), source-view selection, COLMAP's stereo_fusion reading
-// our maps, and the depth-map scores of the evaluation on a known error pattern.
+// (exact depth), source-view selection and depth ranges (with and without
+// sparse points), geometric iterations on noisy views, COLMAP's stereo_fusion
+// reading our maps, and the depth-map scores of the evaluation on a known
+// error pattern.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -292,6 +294,78 @@ TEST_F(MvsTest, SourceSelectionPicksNeighboursAndBoundsTheTrueDepths) {
   }
 }
 
+TEST_F(MvsTest, FrustumOverlapBoundsTheDepthsThatSourcesSee) {
+  // Closed form: a source beside the reference (baseline b along +x, parallel axes, focal f, width w, principal
+  // point at the centre). Reference ray through image column u sees the source's image from depth f b / u on,
+  // up to infinity; the rays at the right border (u = w) enter first: depth_min = f b / w, depth_max = ∞.
+  const double f = 90, b = 0.5;
+  const int w = 96, h = 72;
+  const Camera camera = Camera::Pinhole(1, w, h, f, f, w / 2.0, h / 2.0);
+  Reconstruction model;
+  model.cameras[1] = camera;
+  for (uint32_t id = 1; id <= 3; ++id) {
+    ImageRecord image;
+    image.image_id = id;
+    image.camera_id = 1;
+    image.name = "view_" + std::to_string(id);
+    image.SetPose(Eigen::Matrix3d::Identity(), Eigen::Vector3d((id - 1) * b, 0, 0));
+    model.images[id] = image;
+  }
+  std::vector<StereoView> views;
+  for (const auto& [id, image] : model.images) views.push_back(MakeStereoView(model, image, 0));
+  double lo = 0, hi = 0;
+  ASSERT_TRUE(FrustumOverlapDepthRange(views[0], {&views[1]}, 1, &lo, &hi));
+  EXPECT_NEAR(lo, f * b / w, 1e-12);
+  EXPECT_TRUE(std::isinf(hi));
+  // Two sources (baselines b and 2b): both see the point only from f · 2b / w on.
+  ASSERT_TRUE(FrustumOverlapDepthRange(views[0], {&views[1], &views[2]}, 2, &lo, &hi));
+  EXPECT_NEAR(lo, f * 2 * b / w, 1e-12);
+  // A source looking away sees nothing of the reference's frustum.
+  model.images[3].SetPose(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()).toRotationMatrix(),
+                          Eigen::Vector3d(0, 0, -1));
+  const StereoView away = MakeStereoView(model, model.images[3], 0);
+  EXPECT_FALSE(FrustumOverlapDepthRange(views[0], {&away}, 1, &lo, &hi));
+}
+
+TEST_F(MvsTest, DepthRangeWithoutSparsePointsIsTheSourcesOverlapOnARing) {
+  // A ring of 16 cameras 6 units from a bumpy sphere of radius ~1 (true depths 4.9..6.2), 30° up, a 35° field
+  // of view, the sphere filling about half the image width, as in configs/synthetic_ring.yaml. Without sparse
+  // points the range was the scene centre's depth ÷/× 3, [2, 18] (an inverse-depth span of 8 / (3 z)); where
+  // three quarters of the 8 sources see the reference's rays, it must still hold every true depth and be at
+  // least 2.5 times narrower in inverse depth ([3.80, 9.97] here: 2.73 times).
+  const Camera camera = Camera::Pinhole(1, 96, 72, 150, 150, 48, 36);
+  std::vector<Eigen::Vector3d> centers;
+  for (int k = 0; k < 16; ++k) {
+    const double azimuth = 2 * M_PI * k / 16, elevation = M_PI / 6;
+    centers.emplace_back(6 * std::cos(elevation) * std::cos(azimuth), 6 * std::cos(elevation) * std::sin(azimuth),
+                         6 * std::sin(elevation));
+  }
+  const auto poses = mvs_test::LookAtCameras(centers, Eigen::Vector3d::Zero());
+  TestScene scene = mvs_test::RenderScene(mvs_test::MakeBumpySphere(3), camera, poses, 0, 5);
+  scene.model.points3d.clear();
+  std::vector<StereoView> views;
+  for (const auto& [id, image] : scene.model.images) views.push_back(MakeStereoView(scene.model, image, 0));
+  const MvsOptions options;  // 8 sources
+  const std::vector<ViewSelection> plans = SelectViews(scene.model, views, options);
+  for (const ViewSelection& plan : plans) {
+    ASSERT_TRUE(plan.skip_reason.empty()) << plan.skip_reason;
+    ASSERT_TRUE(plan.from_poses);
+    ASSERT_EQ(plan.sources.size(), 8u);
+    const Image& depth = scene.depths[plan.ref];
+    float lo = 1e9f, hi = 0;
+    for (float d : depth.pixels) {
+      if (d > 0) lo = std::min(lo, d), hi = std::max(hi, d);
+    }
+    ASSERT_GT(hi, lo);
+    EXPECT_LE(plan.depth_min, lo);
+    EXPECT_GE(plan.depth_max, hi);
+    const double z = 6.0;  // the scene centre's depth
+    const double old_span = 3 / z - 1 / (3 * z);
+    const double span = 1 / plan.depth_min - 1 / plan.depth_max;
+    EXPECT_LE(span, old_span / 2.5) << plan.depth_min << " " << plan.depth_max;
+  }
+}
+
 TEST_F(MvsTest, SourceSelectionPrefersNeighboursToViewsFromTheFarSide) {
   // A ring of 8 cameras (45° apart) around the origin. The reference (view 0) shares 30 sparse points with its
   // neighbour (view 1, 45° triangulation angle), 60 with the camera opposite (view 4, about 180°) and 40 with
@@ -341,6 +415,67 @@ TEST_F(MvsTest, SourceSelectionPrefersNeighboursToViewsFromTheFarSide) {
   // View 4 shares points with the reference only, at about 180°: it gets no source at all, and says why.
   EXPECT_NE(plans[4].skip_reason.find("no source view shares 5 sparse points"), std::string::npos)
       << plans[4].skip_reason;
+}
+
+TEST_F(MvsTest, GeometricIterationsMakeNoisyViewsAgree) {
+  // The bumpy sphere seen by 12 cameras (96 × 72 px, 4 sources each), each photo with its own strong pixel
+  // noise (σ 0.08 on [0, 1]), so the photometric maps are noisy. Each geometric iteration matches against the
+  // sources' maps of the one before: one must put at least 0.02 more of the sphere's pixels within 1% of each
+  // view's true depth range than the photometric maps, three at least 0.02 more than one (0.22, 0.27 and 0.31
+  // here); the intermediate maps are deleted, and a second run reuses every image.
+  const Camera camera = Camera::Pinhole(1, 96, 72, 90, 90, 48, 36);
+  const auto poses = mvs_test::LookAtCameras(mvs_test::TwoRingCenters(6, 3.5), Eigen::Vector3d::Zero());
+  TestScene scene = mvs_test::RenderScene(mvs_test::MakeBumpySphere(4), camera, poses, 1500, 5);
+  std::mt19937 rng(11);
+  std::normal_distribution<float> noise(0.0f, 0.08f);
+  for (Image& image : scene.images) {
+    for (float& v : image.pixels) v = std::clamp(v + noise(rng), 0.0f, 1.0f);
+  }
+  testing::TempDir dir;
+  mvs_test::WriteSfmWorkspace(scene, dir / "sfm");
+  const auto completeness = [&](const MvsWorkspace& ws, const std::string& type) {
+    double sum = 0;
+    size_t k = 0;
+    for (const auto& [id, image] : scene.model.images) {
+      const DepthNormalMap map = ws.ReadMaps(MakeStereoView(scene.model, image, 0), type);
+      const Image& depth = scene.depths[k++];
+      float lo = 1e9f, hi = 0;
+      for (float d : depth.pixels) {
+        if (d > 0) lo = std::min(lo, d), hi = std::max(hi, d);
+      }
+      size_t good = 0, object = 0;
+      for (size_t i = 0; i < map.depth.size(); ++i) {
+        if (!(depth.pixels[i] > 0)) continue;
+        ++object;
+        good += std::abs(map.depth[i] - depth.pixels[i]) <= 0.01f * (hi - lo);
+      }
+      sum += double(good) / object;
+    }
+    return sum / scene.images.size();
+  };
+  MvsOptions options;
+  options.max_source_images = 4;
+  options.geom_iterations = 1;
+  MvsSummary one_summary;
+  const MvsWorkspace one = PrepareMvsWorkspace(dir / "sfm", dir / "one");
+  ComputeDepthMaps(options, one, &one_summary);
+  options.geom_iterations = 3;
+  MvsSummary three_summary;
+  const MvsWorkspace three = PrepareMvsWorkspace(dir / "sfm", dir / "three");
+  ComputeDepthMaps(options, three, &three_summary);
+  const double photometric = completeness(one, "photometric");
+  const double after_one = completeness(one, "geometric_unfiltered");
+  const double after_three = completeness(three, "geometric_unfiltered");
+  std::printf("noisy sphere: completeness photometric %.3f, 1 geometric iteration %.3f, 3 iterations %.3f\n",
+              photometric, after_one, after_three);
+  EXPECT_GT(after_one, photometric + 0.02);
+  EXPECT_GT(after_three, after_one + 0.02);
+  const std::string name = scene.model.images.begin()->second.name;
+  EXPECT_FALSE(three.HasMaps(name, "geometric_unfiltered_1"));
+  EXPECT_FALSE(three.HasMaps(name, "geometric_unfiltered_2"));
+  MvsSummary again;
+  ComputeDepthMaps(options, three, &again);
+  EXPECT_EQ(again.num_reused, 12);
 }
 
 TEST_F(MvsTest, StereoFusionFusesOurMapsOntoTheSurface) {

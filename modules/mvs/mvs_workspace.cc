@@ -47,6 +47,13 @@ DepthNormalMap MvsWorkspace::ReadMaps(const StereoView& view, const std::string&
   return FromColmapMaps(depth, normal, view.K, DepthMapPath(view.name, type));
 }
 
+void MvsWorkspace::RemoveMaps(const std::string& image_name, const std::string& type) const {
+  std::error_code ec;  // missing files are fine
+  fs::remove(DepthMapPath(image_name, type), ec);
+  fs::remove(NormalMapPath(image_name, type), ec);
+  fs::remove(ReportPath(image_name, type), ec);
+}
+
 namespace {
 
 // Mirrors the regular files below `from` into `to` by hard links (copies when linking fails).

@@ -5,7 +5,8 @@
 //   images/                     hard links to <sfm>/dense/images (copies across file systems)
 //   sparse/                     hard links to <sfm>/dense/sparse (COLMAP model, PINHOLE cameras)
 //   stereo/depth_maps/<image name>.<type>.bin   (colmap_mat.h, COLMAP's pixel convention), type
-//       photometric (pass 1), geometric_unfiltered (pass 2), geometric (filtered; what fusion reads)
+//       photometric (pass 1), geometric_unfiltered (pass 2; geometric_unfiltered_<k> for its earlier
+//       iterations, deleted once the last is complete), geometric (filtered; what fusion reads)
 //   stereo/normal_maps/<image name>.<type>.bin
 //   stereo/consistency_graphs/  (empty; COLMAP 3.8's fusion does not read them)
 //   stereo/patch-match.cfg      per reference image: its name, then its source names, comma-separated
@@ -42,6 +43,8 @@ struct MvsWorkspace {
   void WriteMaps(const StereoView& view, const DepthNormalMap& map, const std::string& type) const;
   // Reads both maps back into the pixel-centre convention; throws UserError when missing or malformed.
   DepthNormalMap ReadMaps(const StereoView& view, const std::string& type) const;
+  // Deletes both maps and the report of an image (depth map first, so a half-removed pair is not complete).
+  void RemoveMaps(const std::string& image_name, const std::string& type) const;
 };
 
 // Creates `<output_dir>/dense` from `<sfm_dir>/dense` (hard links, else copies). Throws UserError when the

@@ -1,6 +1,7 @@
 #include "mvs/view_selection.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -8,6 +9,8 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+
+#include "core/error.h"
 
 namespace relight {
 namespace {
@@ -19,7 +22,9 @@ double Percentile(std::vector<double> values, double fraction) {
 }
 
 constexpr double kPreferredAngleDeg = 15.0;  // pose-only fallback: best triangulation angle at the scene centre
-constexpr double kDepthFactor = 3.0;         // pose-only fallback: depth range = centre depth ÷/× this
+constexpr double kDepthFactor = 3.0;         // pose-only fallback: depth range within centre depth ÷/× this ...
+constexpr double kOverlapFraction = 0.75;    // ... where the reference's rays are inside this many of the sources' frusta
+constexpr int kOverlapRays = 32;             // rays per image side sampled for the frustum overlap
 
 // The point closest (least squares) to every camera's optical axis; false when the axes are (nearly) parallel.
 bool AxesCenter(const std::vector<StereoView>& views, Eigen::Vector3d* center) {
@@ -38,6 +43,66 @@ bool AxesCenter(const std::vector<StereoView>& views, Eigen::Vector3d* center) {
   *center = A.ldlt().solve(b);
   return true;
 }
+
+// Interval of ray parameters t >= 0 for which a + b t >= 0 (a and b scalars), intersected into [*lo, *hi].
+void ClipHalfLine(double a, double b, double* lo, double* hi) {
+  if (b > 0) {
+    *lo = std::max(*lo, -a / b);
+  } else if (b < 0) {
+    *hi = std::min(*hi, -a / b);
+  } else if (a < 0) {
+    *hi = -1;  // never
+  }
+}
+
+}  // namespace
+
+bool FrustumOverlapDepthRange(const StereoView& ref, const std::vector<const StereoView*>& sources, int min_views,
+                              double* depth_min, double* depth_max) {
+  RELIGHT_CHECK(min_views >= 1) << min_views;
+  const Eigen::Matrix3d K_inv = ref.K.inverse();
+  const Eigen::Matrix3d world_from_cam = ref.R_cam_from_world.transpose();
+  const Eigen::Vector3d center = ref.CenterWorld();
+  double lo = std::numeric_limits<double>::infinity(), hi = 0;
+  std::vector<std::pair<double, int>> events;  // (t, +1 entering / -1 leaving a frustum)
+  for (int gy = 0; gy <= kOverlapRays; ++gy) {
+    for (int gx = 0; gx <= kOverlapRays; ++gx) {
+      // Ray through the image point, z = 1 in the reference camera: X(t) = center + t · dir_world, t = camera z.
+      const Eigen::Vector3d pixel(ref.width * gx / double(kOverlapRays), ref.height * gy / double(kOverlapRays), 1);
+      const Eigen::Vector3d dir_world = world_from_cam * (K_inv * pixel);
+      events.clear();
+      for (const StereoView* v : sources) {
+        // Source image coordinates: p(t) = K (A + t B); inside when z > 0 and 0 <= x <= w·z, 0 <= y <= h·z.
+        const Eigen::Vector3d A = v->K * (v->R_cam_from_world * center + v->t_cam_from_world);
+        const Eigen::Vector3d B = v->K * (v->R_cam_from_world * dir_world);
+        double t0 = 0, t1 = std::numeric_limits<double>::infinity();
+        ClipHalfLine(A.z(), B.z(), &t0, &t1);
+        ClipHalfLine(A.x(), B.x(), &t0, &t1);
+        ClipHalfLine(v->width * A.z() - A.x(), v->width * B.z() - B.x(), &t0, &t1);
+        ClipHalfLine(A.y(), B.y(), &t0, &t1);
+        ClipHalfLine(v->height * A.z() - A.y(), v->height * B.z() - B.y(), &t0, &t1);
+        if (!(t1 > t0)) continue;
+        events.emplace_back(t0, +1);
+        events.emplace_back(t1, -1);
+      }
+      // Leaving before entering at equal t: a touching pair of frusta does not overlap.
+      std::sort(events.begin(), events.end());
+      int inside = 0;
+      for (size_t e = 0; e < events.size(); ++e) {
+        const int before = inside;
+        inside += events[e].second;
+        if (before < min_views && inside >= min_views) lo = std::min(lo, events[e].first);
+        if (before >= min_views && inside < min_views) hi = std::max(hi, events[e].first);
+      }
+    }
+  }
+  if (!(hi > lo)) return false;
+  *depth_min = lo;
+  *depth_max = hi;
+  return true;
+}
+
+namespace {
 
 // Sources and depth range of view r from the poses alone.
 void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d& center, const MvsOptions& options,
@@ -74,6 +139,19 @@ void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d
   plan->from_poses = true;
   plan->depth_min = z / kDepthFactor;
   plan->depth_max = z * kDepthFactor;
+  // Only depths that most sources see can be matched: the frustum overlap narrows the range (a few times for a
+  // ring of photos around an object: mvs_test DepthRangeWithoutSparsePointsIsTheSourcesOverlapOnARing).
+  std::vector<const StereoView*> sources;
+  for (int s : plan->sources) sources.push_back(&views[s]);
+  const int num_sources = static_cast<int>(sources.size());
+  const int min_views = std::min(num_sources, std::max(options.num_best_views,
+                                                       static_cast<int>(std::ceil(kOverlapFraction * num_sources))));
+  double overlap_min, overlap_max;
+  if (min_views > 0 && FrustumOverlapDepthRange(ref, sources, min_views, &overlap_min, &overlap_max) &&
+      overlap_min < plan->depth_max && overlap_max > plan->depth_min) {
+    plan->depth_min = std::max(plan->depth_min, overlap_min);
+    plan->depth_max = std::min(plan->depth_max, overlap_max);
+  }
   if (plan->sources.empty()) {
     std::ostringstream reason;
     reason << "no other view sees the scene centre under a triangulation angle between "

@@ -15,8 +15,11 @@
 // A model without 3D points (cameras given as ground truth) falls back to the
 // poses alone: the point closest to all optical axes is taken as the scene
 // centre, sources are the views that see it under a triangulation angle
-// nearest to `kPreferredAngleDeg`, and the depth range spans a factor of
-// three either side of the centre's depth.
+// nearest to `kPreferredAngleDeg`, and the depth range is where the
+// reference's viewing frustum overlaps the frusta of three quarters of its
+// sources (at least `num_best_views` of them), within a factor of three
+// either side of the centre's depth: only there can enough sources see a
+// surface to match it.
 #pragma once
 
 #include <string>
@@ -41,6 +44,12 @@ struct ViewSelection {
   bool from_poses = false;            // chosen by the pose-only fallback (no sparse points)
   std::string skip_reason;            // non-empty: the image cannot be a reference (no sources / no depth range)
 };
+
+// Depth range (camera z) of the points that `ref` sees (inside its image) and at least `min_views` of `sources`
+// see too (in front, inside their images), from the rays through a grid of points over ref's image; each ray's
+// intervals inside the sources' frusta are exact (five half-spaces each). False when no such point exists.
+bool FrustumOverlapDepthRange(const StereoView& ref, const std::vector<const StereoView*>& sources, int min_views,
+                              double* depth_min, double* depth_max);
 
 // One plan per view (same order). `views` must come from `model` (image_id set).
 std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::vector<StereoView>& views,
