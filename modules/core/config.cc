@@ -20,7 +20,7 @@ ConfigDocument ConfigDocument::Load(const std::string& path) {
   ConfigDocument doc;
   std::error_code ec;
   const fs::path abs = fs::absolute(path, ec).lexically_normal();
-  if (!fs::is_regular_file(abs)) {
+  if (!fs::is_regular_file(abs, ec)) {
     RELIGHT_USER_ERROR() << "config file '" << path << "' does not exist; pass the path of a YAML config "
                          << "(see configs/README.md)";
   }
@@ -50,8 +50,12 @@ void ConfigDocument::LoadFile(const std::string& file, int depth) {
     fs::path base_path = fs::path(base.Scalar());
     if (base_path.is_relative()) base_path = fs::path(base_dir) / base_path;
     base_path = base_path.lexically_normal();
-    if (!fs::is_regular_file(base_path)) {
-      RELIGHT_USER_ERROR() << Where(base, file) << ": base config '" << base.Scalar() << "' does not exist";
+    std::error_code ec;  // a name too long for the file system is an error code, not an exception
+    if (!fs::is_regular_file(base_path, ec)) {
+      RELIGHT_USER_ERROR() << Where(base, file) << ": base config '" << base.Scalar().substr(0, 200)
+                           << (base.Scalar().size() > 200 ? "..." : "") << "' "
+                           << (ec && ec != std::errc::no_such_file_or_directory ? "cannot be read (" + ec.message() + ")"
+                                                                                : std::string("does not exist"));
     }
     LoadFile(base_path.string(), depth + 1);
   }

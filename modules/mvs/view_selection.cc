@@ -104,18 +104,14 @@ bool FrustumOverlapDepthRange(const StereoView& ref, const std::vector<const Ste
 
 namespace {
 
-// Sources and depth range of view r from the poses alone.
-void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d& center, const MvsOptions& options,
-                     ViewSelection* plan) {
-  const StereoView& ref = views[plan->ref];
-  const double z = (ref.R_cam_from_world * center + ref.t_cam_from_world).z();
-  if (!(z > 0)) {
-    plan->skip_reason = "it does not look at the scene centre (the point nearest to all optical axes)";
-    return;
-  }
+// Views other than `ref` (and those in `exclude`) that see `center` under a triangulation angle between the
+// minimum and 90°, best first (nearest to kPreferredAngleDeg), at most `limit`.
+std::vector<int> SourcesFromPoses(const std::vector<StereoView>& views, int r, const Eigen::Vector3d& center,
+                                  const MvsOptions& options, const std::vector<int>& exclude, int limit) {
+  const StereoView& ref = views[r];
   std::vector<std::pair<double, int>> candidates;  // (|angle - preferred|, source)
   for (int s = 0; s < static_cast<int>(views.size()); ++s) {
-    if (s == plan->ref) continue;
+    if (s == r || std::find(exclude.begin(), exclude.end(), s) != exclude.end()) continue;
     const Eigen::Vector3d x = views[s].R_cam_from_world * center + views[s].t_cam_from_world;
     if (!(x.z() > 0)) continue;
     const Eigen::Vector3d p = views[s].K * (x / x.z());
@@ -127,8 +123,19 @@ void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d
     candidates.emplace_back(std::abs(angle - kPreferredAngleDeg), s);
   }
   std::sort(candidates.begin(), candidates.end());
-  if (static_cast<int>(candidates.size()) > options.max_source_images) candidates.resize(options.max_source_images);
+  std::vector<int> sources;
   for (const auto& [score, s] : candidates) {
+    if (static_cast<int>(sources.size()) >= limit) break;
+    sources.push_back(s);
+  }
+  return sources;
+}
+
+// Appends `sources` chosen from the poses to the plan (no shared points; the angle at the scene centre).
+void AddPoseSources(const std::vector<StereoView>& views, const Eigen::Vector3d& center, const std::vector<int>& sources,
+                    ViewSelection* plan) {
+  const StereoView& ref = views[plan->ref];
+  for (int s : sources) {
     plan->sources.push_back(s);
     plan->shared_points.push_back(0);
     plan->shared_score.push_back(0.0);
@@ -136,6 +143,19 @@ void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d
     const Eigen::Vector3d rb = (views[s].CenterWorld() - center).normalized();
     plan->median_angle_deg.push_back(std::acos(std::clamp(ra.dot(rb), -1.0, 1.0)) * 180.0 / M_PI);
   }
+}
+
+// Sources and depth range of view r from the poses alone.
+void SelectFromPoses(const std::vector<StereoView>& views, const Eigen::Vector3d& center, const MvsOptions& options,
+                     ViewSelection* plan) {
+  const StereoView& ref = views[plan->ref];
+  const double z = (ref.R_cam_from_world * center + ref.t_cam_from_world).z();
+  if (!(z > 0)) {
+    plan->skip_reason = "it does not look at the scene centre (the point nearest to all optical axes)";
+    return;
+  }
+  AddPoseSources(views, center, SourcesFromPoses(views, plan->ref, center, options, {}, options.max_source_images),
+                 plan);
   plan->from_poses = true;
   plan->depth_min = z / kDepthFactor;
   plan->depth_max = z * kDepthFactor;
@@ -204,10 +224,10 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
   }
 
   std::vector<ViewSelection> plans(n);
+  Eigen::Vector3d center;
+  const bool have_center = AxesCenter(views, &center);
   if (model.points3d.size() < 3) {
     // No sparse points (e.g. cameras given as ground truth): choose from the poses.
-    Eigen::Vector3d center;
-    const bool have_center = AxesCenter(views, &center);
     for (int r = 0; r < n; ++r) {
       plans[r].ref = r;
       if (!have_center) {
@@ -235,6 +255,17 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
       plan.shared_points.push_back(static_cast<int>(angles[r][s].size()));
       plan.shared_score.push_back(score);
       plan.median_angle_deg.push_back(Percentile(angles[r][s], 0.5));
+    }
+    // Too few sources share points with it (few features under a light of its own): the cost's best views and
+    // the filter's consistent views need more, so views that see the scene centre from a good angle join them.
+    const int wanted = std::min(options.max_source_images,
+                                std::max(options.num_best_views, options.filter_min_num_consistent) + 1);
+    if (static_cast<int>(plan.sources.size()) < wanted && have_center &&
+        (views[r].R_cam_from_world * center + views[r].t_cam_from_world).z() > 0) {
+      const std::vector<int> extra =
+          SourcesFromPoses(views, r, center, options, plan.sources, wanted - static_cast<int>(plan.sources.size()));
+      AddPoseSources(views, center, extra, &plan);
+      plan.num_pose_sources = static_cast<int>(extra.size());
     }
     // Depth range: the sparse points this image observes (all points in front and inside as a fallback).
     std::vector<double> depths = ref_depths[r];

@@ -19,7 +19,10 @@
 // reference's viewing frustum overlaps the frusta of three quarters of its
 // sources (at least `num_best_views` of them), within a factor of three
 // either side of the centre's depth: only there can enough sources see a
-// surface to match it.
+// surface to match it. A view that shares points with too few sources (fewer
+// than max(num_best_views, filter_min_num_consistent) + 1: a photo under a
+// light of its own may match only one neighbour) gets the rest chosen the
+// same way from the poses.
 #pragma once
 
 #include <string>
@@ -42,6 +45,7 @@ struct ViewSelection {
   double depth_max = 0;
   int num_points = 0;                 // sparse points the depth range came from
   bool from_poses = false;            // chosen by the pose-only fallback (no sparse points)
+  int num_pose_sources = 0;           // sources added from the poses because too few share points (last ones)
   std::string skip_reason;            // non-empty: the image cannot be a reference (no sources / no depth range)
 };
 
