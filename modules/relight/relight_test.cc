@@ -75,8 +75,8 @@ TEST(Envmaps, EntriesThatAreNotUsableMapsNameTheEntryAndWhatToDo) {
   WriteImage(dir / "nan.exr", map, {PixelType::kFloat});
   EXPECT_EQ(ErrorOf([&] { LoadRelightEnvmaps({dir / "nan.exr"}); }),
             "relight.envmaps: environment map " + (dir / "nan.exr") +
-                " has 1 NaN, infinite or negative value (the first at pixel (3, 2), channel 0: nan); radiance must be "
-                "finite and >= 0: clamp or replace the map; or remove the entry from relight.envmaps");
+                " has 1 NaN or infinite value (the first at pixel (3, 2), channel 0: nan); radiance must be "
+                "finite: repair or replace the map; or remove the entry from relight.envmaps");
   map.at(3, 2, 0) = 1.0f;
   WriteImage(dir / "good.exr", map, {PixelType::kFloat});
   EXPECT_EQ(LoadRelightEnvmaps({dir / "good.exr"}).size(), 1u);

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "sphere/octahedral.h"
 
 namespace relight {
@@ -62,21 +63,32 @@ EnvMap EnvMap::Load(const std::string& path) {
     RELIGHT_USER_ERROR() << "environment map " << path << " is " << image.width << "x" << image.height
                          << ", not a 2:1 lat-long image: convert it to an equirectangular (lat-long) map";
   }
-  // Radiance is finite and non-negative; one NaN texel turns every render that samples it into NaN.
-  size_t bad = 0, first = 0;
+  // Radiance is finite: one NaN texel turns every render that samples it into NaN, so NaN and infinity are
+  // errors. Small negative values are common in real HDR files (lossy EXR compression, resampling filters:
+  // Blender's own city.exr has 506): they are clamped to zero, with a warning.
+  size_t bad = 0, first = 0, negative = 0;
+  float most_negative = 0;
   for (size_t i = 0; i < image.pixels.size(); ++i) {
-    const float v = image.pixels[i];
-    if (!std::isfinite(v) || v < 0.0f) {
+    float& v = image.pixels[i];
+    if (!std::isfinite(v)) {
       if (bad++ == 0) first = i;
+    } else if (v < 0.0f) {
+      ++negative;
+      most_negative = std::min(most_negative, v);
+      v = 0.0f;
     }
   }
   if (bad > 0) {
     const size_t pixel = first / image.channels;
-    RELIGHT_USER_ERROR() << "environment map " << path << " has " << bad << " NaN, infinite or negative "
+    RELIGHT_USER_ERROR() << "environment map " << path << " has " << bad << " NaN or infinite "
                          << (bad == 1 ? "value" : "values") << " (the first at pixel ("
                          << pixel % image.width << ", " << pixel / image.width << "), channel "
                          << first % image.channels << ": " << image.pixels[first]
-                         << "); radiance must be finite and >= 0: clamp or replace the map";
+                         << "); radiance must be finite: repair or replace the map";
+  }
+  if (negative > 0) {
+    RLOG_WARN("environment map {}: {} negative values (down to {:.3g}) clamped to zero", path, negative,
+              most_negative);
   }
   return FromLatLong(std::move(image));
 }

@@ -15,7 +15,7 @@ namespace relight {
 
 inline const StageInfo kSynthesizeStage{
     "synthesize", "Render a synthetic photo collection (object, ground, varied lighting) with complete ground truth",
-    1};
+    2};
 
 struct SynthesizeOptions {
   // Object.
