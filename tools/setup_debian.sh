@@ -9,11 +9,13 @@ packages=(
   # libraries (all found by CMake's find_package)
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libssl-dev
   libtbb-dev libopenimageio-dev openimageio-tools libembree-dev libceres-dev libcgal-dev libopencv-dev
-  libgtest-dev libgmock-dev libbenchmark-dev libsqlite3-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libsqlite3-dev libtinygltf-dev
   # programs the stages drive, and data
   colmap gnuplot-nox blender-data
   # headless browser for the report test
   chromium
+  # Blender, for the test that imports the glTF export (modules/relight/gltf_blender_test.cc)
+  blender
   # libFuzzer and the sanitizers for the parser fuzz targets (fuzz/)
   clang libclang-rt-14-dev
 )

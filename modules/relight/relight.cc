@@ -21,6 +21,7 @@
 #include "geometry/reconstruction.h"
 #include "image/image.h"
 #include "relight/display.h"
+#include "relight/gltf_export.h"
 #include "relight/ground_truth_frame.h"
 #include "render/lighting.h"
 #include "render/render_view.h"
@@ -105,6 +106,53 @@ bool WriteAnimatedGif(const std::string& path, const std::vector<Image>& frames,
   out->close();
   file.Commit();
   return true;
+}
+
+// Each photo's recovered map from <inverse>/lighting.json (unseen texels zeroed when relight.zero_unseen_light)
+// with its camera from <sfm>/sparse. Both files are required for re-renderings; without them the export gets
+// no maps or no cameras, with a note.
+std::vector<RecoveredPhoto> LoadRecoveredPhotos(const RelightOptions& o, const RelightInputs& in, const Scene& scene,
+                                                std::vector<std::string>* notes) {
+  const std::string lighting_path = JoinPath(in.inverse_dir, "lighting.json");
+  const std::string sparse = JoinPath(in.sfm_dir, "sparse");
+  const bool have_lighting = fs::is_regular_file(lighting_path);
+  const bool have_cameras = !in.sfm_dir.empty() && fs::is_directory(sparse);
+  if (o.rerender && !have_lighting) {
+    RELIGHT_USER_ERROR() << "'" << lighting_path << "' is missing; rerun the inverse stage";
+  }
+  if (o.rerender && !have_cameras) {
+    RELIGHT_USER_ERROR() << "relight.rerender needs the photos' cameras, but '" << sparse
+                         << "' is missing; run the sfm stage (or set relight.rerender: false)";
+  }
+  if (!have_lighting) {
+    notes->push_back("no environment maps exported: '" + lighting_path + "' is missing");
+    return {};
+  }
+  if (!have_cameras) notes->push_back("export without cameras: '" + sparse + "' is missing");
+  const Reconstruction cameras = have_cameras ? Reconstruction::Read(sparse) : Reconstruction();
+  const Json lighting = ReadJsonFile(lighting_path);
+  std::map<int, std::vector<char>> unseen_by_size;  // per map size
+  std::vector<RecoveredPhoto> photos;
+  for (const auto& p : lighting.at("photos")) {
+    RecoveredPhoto photo;
+    photo.name = p.at("name").get<std::string>();
+    if (const ImageRecord* image = cameras.FindImage(photo.name)) {
+      photo.camera = RenderCamera{photo.name, cameras.cameras.at(image->camera_id), *image};
+    } else if (have_cameras) {
+      notes->push_back("photo '" + photo.name + "' has a recovered map but no camera in " + sparse);
+    }
+    const std::string oct = JoinPath(in.inverse_dir, p.at("envmap_oct").get<std::string>());
+    if (!fs::is_regular_file(oct)) RELIGHT_USER_ERROR() << "'" << oct << "' is missing; rerun the inverse stage";
+    Image map = ReadImage(oct);
+    if (o.zero_unseen_light) {
+      auto it = unseen_by_size.find(map.width);
+      if (it == unseen_by_size.end()) it = unseen_by_size.emplace(map.width, UnseenOctTexels(scene, map.width)).first;
+      map = ZeroTexels(map, it->second);
+    }
+    photo.envmap = EnvMap::FromOctahedral(map);
+    photos.push_back(std::move(photo));
+  }
+  return photos;
 }
 
 }  // namespace
@@ -252,8 +300,12 @@ std::string RelightSummary::BriefReport() const {
     s << (first ? "" : ", ") << n << " " << kind;
     first = false;
   }
-  s << "); rendered " << rendered << ", reused " << reused << "; frame " << frame_method << "; "
-    << Progress::FormatSeconds(seconds);
+  s << "); rendered " << rendered << ", reused " << reused << "; frame " << frame_method << "; ";
+  if (!exported.model.empty()) {
+    s << "export " << exported.model << " (" << exported.vertices << " vertices, " << exported.primitives
+      << " primitives) and " << exported.envmaps.size() << " maps; ";
+  }
+  s << Progress::FormatSeconds(seconds);
   return s.str();
 }
 
@@ -267,6 +319,7 @@ OrderedJson RelightSummary::ToJson() const {
   j["seconds"] = seconds;
   j["turntable_gif"] = turntable_gif;
   j["notes"] = notes;
+  j["export"] = exported.ToJson();
   OrderedJson list = OrderedJson::array();
   for (const auto& r : renders) {
     OrderedJson e;
@@ -286,7 +339,8 @@ OrderedJson RelightSummary::ToJson() const {
   return j;
 }
 
-std::vector<RenderRecord> ReadRenderIndex(const std::string& relight_dir, std::string* turntable_gif) {
+std::vector<RenderRecord> ReadRenderIndex(const std::string& relight_dir, std::string* turntable_gif,
+                                          ExportRecord* exported) {
   const std::string path = JoinPath(relight_dir, "relight_summary.json");
   if (!fs::is_regular_file(path)) {
     RELIGHT_USER_ERROR() << "'" << path << "' is missing; rerun the relight stage (pipeline run CONFIG --from relight)";
@@ -312,6 +366,7 @@ std::vector<RenderRecord> ReadRenderIndex(const std::string& relight_dir, std::s
     out.push_back(std::move(r));
   }
   if (turntable_gif != nullptr) *turntable_gif = j.value("turntable_gif", "");
+  if (exported != nullptr) *exported = ExportRecord::FromJson(j.contains("export") ? j["export"] : Json());
   return out;
 }
 
@@ -360,34 +415,18 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
     jobs.push_back(std::move(job));
   };
 
-  // (a) Re-renderings of the input photos under their recovered maps.
-  const std::string lighting_path = JoinPath(in.inverse_dir, "lighting.json");
+  // (a) Re-renderings of the input photos under their recovered maps (which the export writes too).
+  const std::vector<RecoveredPhoto> photos = LoadRecoveredPhotos(o, in, scene, &summary.notes);
   if (o.rerender) {
-    if (!fs::is_regular_file(lighting_path)) {
-      RELIGHT_USER_ERROR() << "'" << lighting_path << "' is missing; rerun the inverse stage";
-    }
-    const std::string sparse = JoinPath(in.sfm_dir, "sparse");
-    if (in.sfm_dir.empty() || !fs::is_directory(sparse)) {
-      RELIGHT_USER_ERROR() << "relight.rerender needs the photos' cameras, but '" << sparse
-                           << "' is missing; run the sfm stage (or set relight.rerender: false)";
-    }
-    const Reconstruction cameras = Reconstruction::Read(sparse);
-    const Json lighting = ReadJsonFile(lighting_path);
-    std::map<int, std::vector<char>> unseen_by_size;  // per map size
     uint64_t index = 0;
-    for (const auto& p : lighting.at("photos")) {
-      const std::string name = p.at("name").get<std::string>();
-      const ImageRecord* image = cameras.FindImage(name);
-      if (image == nullptr) {
-        summary.notes.push_back("photo '" + name + "' has a recovered map but no camera in " + sparse);
-        continue;
-      }
+    for (const RecoveredPhoto& photo : photos) {
+      if (!photo.camera) continue;
       Job job;
       job.record.kind = "rerender";
-      job.record.name = Stem(name);
-      job.record.view = name;
-      job.record.light = "recovered:" + Stem(name);
-      job.record.camera = {name, cameras.cameras.at(image->camera_id), *image};
+      job.record.name = Stem(photo.name);
+      job.record.view = photo.name;
+      job.record.light = "recovered:" + Stem(photo.name);
+      job.record.camera = *photo.camera;
       Camera& camera = job.record.camera.camera;
       const int longer = std::max(camera.width, camera.height);
       if (o.rerender_max_size > 0 && longer > o.rerender_max_size) {
@@ -398,15 +437,7 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
         camera.width = w;
         camera.height = h;
       }
-      const std::string oct = JoinPath(in.inverse_dir, p.at("envmap_oct").get<std::string>());
-      if (!fs::is_regular_file(oct)) RELIGHT_USER_ERROR() << "'" << oct << "' is missing; rerun the inverse stage";
-      Image map = ReadImage(oct);
-      if (o.zero_unseen_light) {
-        auto it = unseen_by_size.find(map.width);
-        if (it == unseen_by_size.end()) it = unseen_by_size.emplace(map.width, UnseenOctTexels(scene, map.width)).first;
-        map = ZeroTexels(map, it->second);
-      }
-      job.lighting = EnvLighting(EnvMap::FromOctahedral(map));
+      job.lighting = EnvLighting(photo.envmap);
       job.background = o.background;
       job.stream = kRerender;
       job.view_index = index++;
@@ -575,6 +606,12 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
       }
     }
   }
+
+  // The export for Blender and other tools (relight/gltf_export.h): cheap, rewritten on every run.
+  summary.exported = WriteExport(output_dir, model.mesh, model.reflectance, photos);
+  RLOG_INFO("export: {} ({} vertices, {} triangles, {} primitives), {} environment maps, albedo scale {:.4g}",
+            summary.exported.model, summary.exported.vertices, summary.exported.triangles, summary.exported.primitives,
+            summary.exported.envmaps.size(), summary.exported.albedo_scale);
 
   // Render what is missing.
   for (const auto& dir : {"rerender", "heldout", "novel", "albedo", "material", "turntable"})

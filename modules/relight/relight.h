@@ -16,6 +16,9 @@
 //   renders/<kind>/<name>.png   tone-mapped (relight/display.h), 8-bit sRGB
 //   renders/<kind>/<name>_mask.png  object mask (255 where the pixel-centre ray first hits the object)
 //   renders/turntable/frame_NNN.{exr,png}, renders/turntable/turntable.gif
+//   export/model.glb, export/envmaps/<stem>.exr, export/scene.json
+//                               the model as glTF 2.0 for Blender with each photo's recovered map and camera
+//                               (relight/gltf_export.h); rewritten on every run
 //   relight_summary.json        index of every image with its camera and light (RelightIndex below)
 // Every image is written atomically; a rerun in the same folder renders only what is missing.
 #pragma once
@@ -27,6 +30,7 @@
 #include "brdf/brdf.h"
 #include "core/json.h"
 #include "geometry/mesh.h"
+#include "relight/gltf_export.h"
 #include "relight/relight_options.h"
 #include "relight/views.h"
 #include "render/scene.h"
@@ -89,17 +93,20 @@ struct RelightSummary {
   int reused = 0;                  // images already present (an earlier run was killed)
   std::string frame_method;        // ground-truth frame relation (relight/ground_truth_frame.h) or "none"
   std::string turntable_gif;       // relative path; empty when none
+  ExportRecord exported;           // the export folder (relight/gltf_export.h)
   std::vector<std::string> notes;  // what was skipped and why
   double seconds = 0;
 
   // One paragraph for the log.
   std::string BriefReport() const;
-  // relight_summary.json: {"format": "relight-renders", "version": 1, "renders": [...], ...}.
+  // relight_summary.json: {"format": "relight-renders", "version": 1, "renders": [...], "export": {...}, ...}.
   OrderedJson ToJson() const;
 };
 
-// Reads <relight>/relight_summary.json (throws UserError naming it when missing or malformed).
-std::vector<RenderRecord> ReadRenderIndex(const std::string& relight_dir, std::string* turntable_gif = nullptr);
+// Reads <relight>/relight_summary.json (throws UserError naming it when missing or malformed); the export
+// record is empty (model == "") for a summary written before relight version 4.
+std::vector<RenderRecord> ReadRenderIndex(const std::string& relight_dir, std::string* turntable_gif = nullptr,
+                                          ExportRecord* exported = nullptr);
 
 // Upstream folders of the stage.
 struct RelightInputs {

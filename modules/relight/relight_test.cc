@@ -437,6 +437,68 @@ TEST_F(RelightStageTest, UnseenTexelsAreBelowTheGroundAndZeroingThemOnlyRemovesN
   EXPECT_LT(noise_zeroed, 0.7 * noise_full) << noise_zeroed << " vs " << noise_full;
 }
 
+TEST_F(RelightStageTest, ExportHoldsTheModelAndEveryPhotosMapAndCamera) {
+  RelightOptions o = StageOptions();
+  o.views = 0;
+  o.turntable_frames = 0;
+  o.heldout = false;
+  o.rerender_max_size = 16;
+  const RelightSummary s = RunRelight(o, Inputs(), dir_ / "out");
+  EXPECT_EQ(s.exported.model, "export/model.glb");
+  EXPECT_EQ(s.exported.scene, "export/scene.json");
+  EXPECT_EQ(s.exported.vertices, int(sphere_.num_vertices()));  // the object only: no occluder
+  EXPECT_EQ(s.exported.triangles, int(sphere_.num_faces()));
+  EXPECT_EQ(s.exported.primitives, 2);
+  EXPECT_EQ(s.exported.albedo_scale, 1.0);  // blended Lambertian albedo <= 0.7
+  EXPECT_GT(fs::file_size(dir_ / "out/export/model.glb"), 12 + 40 * sphere_.num_vertices());
+  ExportRecord listed;
+  ReadRenderIndex(dir_ / "out", nullptr, &listed);
+  EXPECT_EQ(listed.envmaps, s.exported.envmaps);
+  EXPECT_EQ(listed.vertices, s.exported.vertices);
+
+  const Json scene = ReadJsonFile(dir_ / "out/export/scene.json");
+  EXPECT_EQ(scene["format"], "relight-export");
+  EXPECT_EQ(scene["version"], 1);
+  EXPECT_EQ(scene["model"], "model.glb");
+  ASSERT_EQ(scene["photos"].size(), 4u);
+  const Reconstruction sfm = Reconstruction::Read(dir_ / "sfm/sparse");
+  // The brightest direction of the model-frame map (the sun; above the ground, so never zeroed).
+  const EnvMap truth_model = EnvMap::FromOctahedral(model_env_oct_);
+  int best = 0;
+  for (int k = 1; k < model_env_oct_.width * model_env_oct_.height; ++k)
+    if (model_env_oct_.pixels[3 * k + 1] > model_env_oct_.pixels[3 * best + 1]) best = k;
+  const Eigen::Vector3d sun = OctTexelDirection(best % 32, best / 32, 32);
+  for (int i = 0; i < 4; ++i) {
+    const Json& p = scene["photos"][i];
+    const std::string stem = "photo_" + std::to_string(i);
+    EXPECT_EQ(p["photo"], stem + ".jpg");
+    EXPECT_EQ(p["envmap"], "envmaps/" + stem + ".exr");
+    EXPECT_EQ(s.exported.envmaps[i], "export/envmaps/" + stem + ".exr");
+    // A lat-long float map, 2:1, 64 high (as the inverse stage's for a 32² octahedral map), whose brightest
+    // pixel is the sun's direction under the project's lat-long convention.
+    const Image map = ReadImage(dir_ / ("out/export/envmaps/" + stem + ".exr"));
+    ASSERT_EQ(map.height, 64);
+    ASSERT_EQ(map.width, 128);
+    int peak = 0;
+    for (int k = 1; k < map.width * map.height; ++k)
+      if (map.pixels[3 * k + 1] > map.pixels[3 * peak + 1]) peak = k;
+    const double theta = M_PI * (peak / map.width + 0.5) / map.height,
+                 phi = 2 * M_PI * (peak % map.width + 0.5) / map.width;
+    const Eigen::Vector3d d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+    EXPECT_GT(d.dot(sun), std::cos(8 * M_PI / 180)) << stem;
+    EXPECT_NEAR(EnvMap::FromLatLong(map).Lookup(sun).y() / truth_model.Lookup(sun).y(), 1.0, 0.35) << stem;
+    // The photo's camera: COLMAP intrinsics and pose as sfm has them, and its glTF pose.
+    const ImageRecord& pose = *sfm.FindImage(stem + ".jpg");
+    const RenderCamera camera = CameraFromJson(p["camera"], "scene.json");
+    EXPECT_EQ(camera.camera.width, 40);
+    EXPECT_NEAR((camera.pose.ProjectionCenter() - pose.ProjectionCenter()).norm(), 0, 1e-9);
+    const Eigen::Vector3d c = pose.ProjectionCenter();
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(p["camera"]["gltf_world_from_camera"][k][3].get<double>(), Eigen::Vector3d(c.x(), c.z(), -c.y())[k],
+                  1e-9);
+  }
+}
+
 TEST_F(RelightStageTest, MissingInputsAreUserErrorsNamingTheFile) {
   fs::remove(dir_ / "inverse/reflectance.ply");
   try {

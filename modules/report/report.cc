@@ -184,7 +184,7 @@ class ReportBuilder {
       summary_.notes.push_back("the evaluate stage did not run: no metrics");
     }
     if (!relight_dir.empty())
-      renders_ = ReadRenderIndex(relight_dir, &turntable_gif_);
+      renders_ = ReadRenderIndex(relight_dir, &turntable_gif_, &exported_);
     else
       summary_.notes.push_back("the relight stage did not run: no renders");
 
@@ -254,6 +254,7 @@ class ReportBuilder {
     HeldOutSection(s);
     NewLightSection(s);
     TurntableSection(s);
+    ExportSection(s);
     ConvergenceSection(s);
     LeaveOneOutSection(s);
     TimingsSection(s);
@@ -619,6 +620,34 @@ class ReportBuilder {
     for (size_t i : Spread(frames.size(), 8)) s << RelightFig(*frames[i], frames[i]->name, o_.tile_px / 2);
   }
 
+  // Links the relight stage's export (model.glb, scene.json), copied with its maps into export/ beside the page.
+  void ExportSection(std::ostringstream& s) {
+    Section(s, "export", "Export for Blender");
+    const std::string relight_dir = Input("relight");
+    if (exported_.model.empty() || !IsFile(JoinPath(relight_dir, exported_.model))) {
+      s << "<p class=\"na\">No export (the relight stage did not run, or an older version of it).</p>\n";
+      return;
+    }
+    std::vector<std::string> files = {exported_.model, exported_.scene};
+    files.insert(files.end(), exported_.envmaps.begin(), exported_.envmaps.end());
+    for (const std::string& f : files) {
+      if (!IsFile(JoinPath(relight_dir, f))) {
+        summary_.notes.push_back("missing export file " + JoinPath(relight_dir, f));
+        continue;
+      }
+      EnsureDir(fs::path(JoinPath(out_, f)).parent_path().string());
+      WriteFileAtomic(JoinPath(out_, f), ReadFileToString(JoinPath(relight_dir, f)));
+    }
+    s << "<p class=\"def\">The recovered model for Blender and other glTF 2.0 tools: <a href=\""
+      << html::Escape(exported_.model) << "\">model.glb</a> (" << exported_.vertices << " vertices, "
+      << exported_.triangles
+      << " triangles; one primitive and material per dominant material, the diffuse albedo as vertex colour, "
+         "+Y up) and <a href=\""
+      << html::Escape(exported_.scene) << "\">scene.json</a> (which of the " << exported_.envmaps.size()
+      << " environment maps in export/envmaps/ and which camera belong to which photo). Conventions and the "
+         "import into Blender: docs/FORMATS.md, \"Export\".</p>\n";
+  }
+
   void ConvergenceSection(std::ostringstream& s) {
     Section(s, "convergence", "Convergence of the inverse solve");
     const std::string path = JoinPath(Input("inverse"), "solve_summary.json");
@@ -739,6 +768,7 @@ class ReportBuilder {
   Json figures_ = Json::object();
   std::vector<RenderRecord> renders_;
   std::string turntable_gif_;
+  ExportRecord exported_;
   std::vector<std::pair<std::string, std::string>> nav_;
   ReportSummary summary_;
 };

@@ -6,6 +6,7 @@
 //   the recovered environment maps (octahedral and lat-long) beside the true ones;
 //   the albedo and dominant material on the mesh (beside the true albedo), with a legend;
 //   held-out views relit under held-out maps; the model under new lights; a turntable;
+//   links to the glTF export (model.glb, scene.json; copied with its maps into export/);
 //   convergence curves of the inverse solve, leave-one-photo-out scores, stage timings.
 // Every image the page shows is copied into the report folder (images/), every
 // chart is an SVG drawn by gnuplot from a CSV beside it (charts/, report/charts.h);

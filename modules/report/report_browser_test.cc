@@ -133,9 +133,18 @@ TEST(ReportBrowser, TinySyntheticChainPageLoadsInHeadlessChromium) {
   EXPECT_EQ(source.find("src=\"/"), std::string::npos);
   EXPECT_EQ(source.find("http://"), std::string::npos);
   EXPECT_EQ(source.find("https://"), std::string::npos);
-  for (const char* section : {"id=\"photos\"", "id=\"envmaps\"", "id=\"materials\"", "id=\"heldout\"", "id=\"relit\"",
-                              "id=\"turntable\"", "id=\"convergence\"", "id=\"loo\"", "id=\"timings\""})
+  for (const char* section :
+       {"id=\"photos\"", "id=\"envmaps\"", "id=\"materials\"", "id=\"heldout\"", "id=\"relit\"", "id=\"turntable\"",
+        "id=\"export\"", "id=\"convergence\"", "id=\"loo\"", "id=\"timings\""})
     EXPECT_NE(source.find(section), std::string::npos) << section;
+  // The glTF export is linked and copied beside the page with its maps (scene.json's paths resolve).
+  EXPECT_NE(source.find("href=\"export/model.glb\""), std::string::npos);
+  EXPECT_NE(source.find("href=\"export/scene.json\""), std::string::npos);
+  EXPECT_GT(fs::file_size(dir / "ws/report/export/model.glb"), 20000u) << "about 2500 vertices of 40 bytes";
+  const Json exported = ReadJsonFile(dir / "ws/report/export/scene.json");
+  ASSERT_EQ(exported["photos"].size(), 6u);
+  for (const auto& p : exported["photos"])
+    EXPECT_TRUE(fs::is_regular_file(dir / ("ws/report/export/" + p["envmap"].get<std::string>()))) << p.dump();
   // What the photos determine of each map (inverse.map_resolution, on at 16² maps): in lighting.json per
   // photo, its levels adding up, and in the env-map table as "N of 256".
   const Json lighting = ReadJsonFile(dir / "ws/stages/inverse/lighting.json");

@@ -10,7 +10,9 @@
 namespace relight {
 
 inline const StageInfo kReportStage{
-    "report", "HTML report: cameras and geometry, photos beside re-renderings, environment maps, materials, relit views, charts", 2};
+    "report",
+    "HTML report: cameras and geometry, photos beside re-renderings, environment maps, materials, relit views, charts",
+    3};
 
 struct ReportOptions {
   std::string title;               // page title; empty: "relight report: <workspace name>"
