@@ -10,7 +10,9 @@
 # stage that fails (e.g. SfM that registers too few photos) is timed all the same
 # and marked. The synthesize and ingest stages run once per build, untimed.
 #
-#   bash tools/geometry_time.sh [--rounds N] [--workspace DIR] BASE_PIPELINE NEW_PIPELINE SCENE
+#   bash tools/geometry_time.sh [--rounds N] [--workspace DIR] [--sfm-only] BASE_PIPELINE NEW_PIPELINE SCENE
+#
+# --sfm-only times the sfm stage alone (the two other columns stay empty).
 #
 # SCENE is a config, or a folder holding images/ and ground_truth/ (a
 # synthesize stage's output folder): photos any build can ingest, for a
@@ -19,14 +21,16 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 rounds=1
 root=/tmp/relight_geometry_time
+sfm_only=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --rounds) rounds=$2; shift 2 ;;
     --workspace) root=$2; shift 2 ;;
+    --sfm-only) sfm_only=1; shift ;;
     *) break ;;
   esac
 done
-[ $# -eq 3 ] || { echo "usage: $0 [--rounds N] [--workspace DIR] BASE_PIPELINE NEW_PIPELINE SCENE" >&2; exit 2; }
+[ $# -eq 3 ] || { echo "usage: $0 [--rounds N] [--workspace DIR] [--sfm-only] BASE_PIPELINE NEW_PIPELINE SCENE" >&2; exit 2; }
 bins=("$1" "$2")
 labels=(baseline current)
 config=$3
@@ -57,10 +61,13 @@ for ((r = 1; r <= rounds; r++)); do
     ws="$root/${labels[$i]}"
     "${bins[$i]}" run "$config" --workspace "$ws" --until sfm --force sfm >>"$ws.log" 2>&1 || true
     read -r sfm_s sfm_status <<<"$(stage "$ws" sfm)"
-    # A forced sfm reruns everything after it, mvs included.
-    "${bins[$i]}" run "$config" --workspace "$ws" --set sfm.mode=ground_truth --until mvs --force sfm >>"$ws.log" 2>&1 || true
-    read -r gt_s gt_status <<<"$(stage "$ws" sfm)"
-    read -r mvs_s mvs_status <<<"$(stage "$ws" mvs)"
+    gt_s=0 gt_status=- mvs_s=0 mvs_status=-
+    if [ "$sfm_only" -eq 0 ]; then
+      # A forced sfm reruns everything after it, mvs included.
+      "${bins[$i]}" run "$config" --workspace "$ws" --set sfm.mode=ground_truth --until mvs --force sfm >>"$ws.log" 2>&1 || true
+      read -r gt_s gt_status <<<"$(stage "$ws" sfm)"
+      read -r mvs_s mvs_status <<<"$(stage "$ws" mvs)"
+    fi
     printf '%-6s %-9s %-22s %-22s %-22s\n' "$r" "${labels[$i]}" \
       "$(awk -v s="$sfm_s" -v n="$n" 'BEGIN{printf "%.2f", s/n}') ($sfm_status)" \
       "$(awk -v s="$gt_s" -v n="$n" 'BEGIN{printf "%.2f", s/n}') ($gt_status)" \

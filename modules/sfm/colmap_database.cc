@@ -2,6 +2,7 @@
 
 #include <sqlite3.h>
 
+#include <cmath>
 #include <cstring>
 
 #include "core/error.h"
@@ -214,6 +215,72 @@ std::vector<uint8_t> ColmapDatabase::ReadDescriptors(int image_id, int* rows, in
   *rows = r;
   *cols = c;
   return data;
+}
+
+void ColmapDatabase::AppendFeatures(int image_id, const std::vector<float>& keypoints,
+                                    const std::vector<uint8_t>& descriptors) {
+  const size_t n = descriptors.size() / 128;
+  RELIGHT_CHECK(descriptors.size() == n * 128 && keypoints.size() == n * 6) << "AppendFeatures: inconsistent sizes";
+  if (n == 0) return;
+  std::vector<float> old_keypoints;
+  int old_rows = 0, keypoint_cols = 6;
+  {
+    Statement s(db_, "SELECT rows, cols, data FROM keypoints WHERE image_id = " + std::to_string(image_id) + ";",
+                path_);
+    if (s.Step()) {
+      old_rows = sqlite3_column_int(s.get(), 0);
+      keypoint_cols = sqlite3_column_int(s.get(), 1);
+      if (old_rows < 0 || (keypoint_cols != 4 && keypoint_cols != 6) ||
+          sqlite3_column_bytes(s.get(), 2) != old_rows * keypoint_cols * int(sizeof(float))) {
+        RELIGHT_USER_ERROR() << "COLMAP database '" << path_ << "' has malformed keypoints for image " << image_id
+                             << "; delete it and rerun the sfm stage";
+      }
+      old_keypoints.resize(size_t(old_rows) * keypoint_cols);
+      if (!old_keypoints.empty()) {
+        std::memcpy(old_keypoints.data(), sqlite3_column_blob(s.get(), 2), old_keypoints.size() * sizeof(float));
+      }
+    }
+  }
+  int descriptor_rows = 0, descriptor_cols = 0;
+  std::vector<uint8_t> all_descriptors = ReadDescriptors(image_id, &descriptor_rows, &descriptor_cols);
+  if (descriptor_rows != old_rows || (descriptor_rows > 0 && descriptor_cols != 128)) {
+    RELIGHT_USER_ERROR() << "COLMAP database '" << path_ << "' has " << old_rows << " keypoints but " << descriptor_rows
+                         << " descriptors of " << descriptor_cols << " bytes for image " << image_id
+                         << "; delete it and rerun the sfm stage";
+  }
+  std::vector<float> all_keypoints = std::move(old_keypoints);
+  for (size_t i = 0; i < n; ++i) {
+    const float* k = &keypoints[i * 6];
+    if (keypoint_cols == 6) {
+      all_keypoints.insert(all_keypoints.end(), k, k + 6);
+    } else {
+      all_keypoints.insert(all_keypoints.end(), {k[0], k[1], std::sqrt(std::abs(k[2] * k[5] - k[3] * k[4])), 0.0f});
+    }
+  }
+  all_descriptors.insert(all_descriptors.end(), descriptors.begin(), descriptors.end());
+  const int rows = old_rows + static_cast<int>(n);
+  auto exec = [&](const std::string& sql, const std::string& what) { Statement(db_, sql, path_).Done(db_, path_, what); };
+  exec("BEGIN TRANSACTION;", "begin a transaction");
+  for (const char* table : {"keypoints", "descriptors"}) {
+    exec("DELETE FROM " + std::string(table) + " WHERE image_id = " + std::to_string(image_id) + ";",
+         "replace features");
+  }
+  {
+    Statement s(db_, "INSERT INTO keypoints (image_id, rows, cols, data) VALUES (?, ?, ?, ?);", path_);
+    sqlite3_bind_int(s.get(), 1, image_id);
+    sqlite3_bind_int(s.get(), 2, rows);
+    sqlite3_bind_int(s.get(), 3, keypoint_cols);
+    sqlite3_bind_blob(s.get(), 4, all_keypoints.data(), int(all_keypoints.size() * sizeof(float)), SQLITE_TRANSIENT);
+    s.Done(db_, path_, "write keypoints");
+  }
+  {
+    Statement s(db_, "INSERT INTO descriptors (image_id, rows, cols, data) VALUES (?, ?, 128, ?);", path_);
+    sqlite3_bind_int(s.get(), 1, image_id);
+    sqlite3_bind_int(s.get(), 2, rows);
+    sqlite3_bind_blob(s.get(), 3, all_descriptors.data(), int(all_descriptors.size()), SQLITE_TRANSIENT);
+    s.Done(db_, path_, "write descriptors");
+  }
+  exec("COMMIT;", "commit the features");
 }
 
 void ColmapDatabase::ReplaceMatches(const std::vector<DatabaseMatches>& matches) {

@@ -80,6 +80,10 @@ class ColmapDatabase {
   std::vector<Eigen::Vector2d> ReadKeypoints(int image_id) const;
   // SIFT descriptors of an image as stored (rows x cols bytes, row-major); empty when it has none.
   std::vector<uint8_t> ReadDescriptors(int image_id, int* rows, int* cols) const;
+  // Appends features to an image's keypoints and descriptors (one transaction): `keypoints` holds 6 floats per
+  // feature (x, y, a11, a12, a21, a22, COLMAP's SIFT layout; an image stored with 4 columns gets x, y, scale,
+  // orientation 0), `descriptors` 128 bytes per feature.
+  void AppendFeatures(int image_id, const std::vector<float>& keypoints, const std::vector<uint8_t>& descriptors);
   // Every pair's putative matches (the `matches` table).
   std::vector<DatabaseMatches> ReadAllMatches() const;
   // Replaces the `matches` table by `matches` (one transaction).

@@ -14,6 +14,7 @@
 #include <set>
 #include <sstream>
 
+#include <opencv2/imgcodecs.hpp>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -21,9 +22,11 @@
 #include "core/fs.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "core/path_text.h"
 #include "core/progress.h"
 #include "core/timer.h"
 #include "image/image.h"
+#include "sfm/chroma_features.h"
 #include "sfm/colmap_command.h"
 #include "sfm/colmap_database.h"
 #include "sfm/descriptor_matching.h"
@@ -38,6 +41,9 @@ namespace {
 // Minimum inliers for a pair to count as "matched" in diagnostics (COLMAP's
 // two-view geometry default min_num_inliers).
 constexpr int kMinPairInliers = 15;
+
+// A verified pair's match fits a model's epipolar geometry within this Sampson distance (pixels).
+constexpr double kTwoViewMaxErrorPx = 4.0;
 
 // What a user can change when photos do not register.
 constexpr const char* kWhatToChange =
@@ -360,15 +366,6 @@ void CheckRegistered(const SfmOptions& options, const SfmSummary& summary, const
                     " pairs' matches fit it (a wrong model can have a normal reprojection error)");
     }
   }
-  std::vector<std::string> unstable;
-  for (const auto& p : summary.photos) {
-    if (p.registered && p.unstable) unstable.push_back(p.name);
-  }
-  if (!unstable.empty()) {
-    RLOG_WARN("{} registered photo(s) were placed differently by an independent mapper run: {}; their cameras may "
-              "be wrong",
-              unstable.size(), JoinNames(unstable));
-  }
   if (!problems.empty()) {
     std::string message;
     for (const auto& p : problems) message += (message.empty() ? "" : "; ") + p;
@@ -404,6 +401,33 @@ std::string PhotoFeatureReport(const SfmSummary& summary, const std::vector<Inge
       << std::max(0, p.num_matched_photos) << " photo(s)";
   }
   return s.str();
+}
+
+// Adds log-chromaticity SIFT features (chroma_features.h) to every image's grey SIFT features in the database.
+void AddChromaFeatures(const std::string& database, const std::string& image_dir, const SfmOptions& options,
+                       std::vector<std::pair<std::string, double>>* step_seconds) {
+  Timer timer;
+  ColmapDatabase db(database);
+  const std::vector<DatabaseImage> images = db.ReadImages();
+  Progress progress("colour features", static_cast<int64_t>(images.size()));
+  std::vector<int> counts;
+  for (const DatabaseImage& image : images) {
+    const std::string path = JoinPath(image_dir, image.name);
+    const cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
+    if (bgr.empty()) {
+      RLOG_WARN("colour features: cannot read '{}'; it keeps its grey features only", PathText(path));
+      counts.push_back(0);
+    } else {
+      const FeatureSet features = ChromaFeatures(bgr, options.max_num_features, options.max_image_size);
+      db.AppendFeatures(image.image_id, features.keypoints, features.descriptors);
+      counts.push_back(features.size());
+    }
+    progress.Advance();
+  }
+  std::vector<double> sorted(counts.begin(), counts.end());
+  RLOG_INFO("colour features: median {:.0f} per photo added to the grey SIFT features ({:.1f} s)",
+            sorted.empty() ? 0.0 : Median(sorted), timer.Seconds());
+  step_seconds->emplace_back("colour features", timer.Seconds());
 }
 
 // Putative matches of every pair (exhaustive) or of each photo with its next
@@ -466,9 +490,11 @@ Reconstruction RunModelCommand(ColmapCommand command, const Reconstruction& mode
   command.Arg("--input_path", in_dir).Arg("--output_path", out_dir);
   RunStep(label, command, "", 0, step_seconds);
   Reconstruction out = Reconstruction::Read(out_dir);
-  if (out.images.size() != model.images.size()) {
-    RELIGHT_USER_ERROR() << "COLMAP " << command.command << " returned " << out.images.size() << " of "
-                         << model.images.size() << " images in " << out_dir << " (see stage.log)";
+  for (const auto& [id, image] : model.images) {
+    if (!out.images.count(id)) {
+      RELIGHT_USER_ERROR() << "COLMAP " << command.command << " returned " << out.images.size() << " images in "
+                           << out_dir << " without '" << image.name << "' (see stage.log)";
+    }
   }
   fs::remove_all(in_dir, ec);
   fs::remove_all(out_dir, ec);
@@ -554,14 +580,16 @@ MapperRun ReadMapperRun(const std::string& dir, const std::string& init_pair, do
 // first pairs of the earlier runs withheld from its database copy: COLMAP's own
 // choice weighs the pair's triangulation angle, which a pair forced on it does
 // not, and a forced weak pair builds no model.
+// `pair_observations` receives every verified pair's matches (for the two-view check).
 std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapCommand& base,
                                         const std::string& database, const std::string& models_root, int n,
-                                        SfmSummary* summary) {
+                                        SfmSummary* summary, std::vector<PairObservations>* pair_observations_out) {
   std::error_code ec;
   fs::remove_all(models_root, ec);
   EnsureDir(models_root);
   std::map<int, std::string> names;
-  std::vector<PairObservations> pair_observations;  // every verified pair's matches, for the two-view check
+  std::vector<PairObservations>& pair_observations = *pair_observations_out;
+  pair_observations.clear();
   std::vector<DatabaseTwoViewGeometry> geometries;
   {
     ColmapDatabase db(database);
@@ -589,7 +617,6 @@ std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapC
   std::set<std::pair<int, int>> withheld;  // first pairs of earlier runs
   std::vector<MapperRun> runs;
   const double kToleranceDeg = 2.0;       // two runs agree on a photo
-  const double kTwoViewMaxErrorPx = 4.0;  // a pair's match fits the model's epipolar geometry
   const int min_photos = std::min(std::max(3, options.min_model_size), n);
   for (int attempt = 0; attempt < options.max_mapper_runs; ++attempt) {
     ColmapCommand map = base;
@@ -707,7 +734,13 @@ std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapC
     for (const auto& [name, counts] : runs[c].two_view.per_photo) {
       if (counts.second >= 2 && 2 * counts.first < counts.second) unstable.insert(name);
     }
-    for (auto& p : summary->photos) p.unstable = unstable.count(p.colmap_name) > 0;
+    for (auto& p : summary->photos) {
+      p.unstable = unstable.count(p.colmap_name) > 0;
+      if (auto it = runs[c].two_view.per_photo.find(p.colmap_name); it != runs[c].two_view.per_photo.end()) {
+        p.pairs_agreeing = it->second.first;
+        p.pairs_checked = it->second.second;
+      }
+    }
     RLOG_INFO("mapper runs: {} ({} run(s); kept run {}, first pair {})", summary->consensus, runs.size(), c + 1,
               runs[c].init_pair);
   }
@@ -767,6 +800,7 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
     RELIGHT_USER_ERROR() << "COLMAP feature_extractor wrote no database at '" << database << "' (see stage.log)";
   }
   ColmapDatabase(database).CanonicalizeIds();
+  AddChromaFeatures(database, image_dir, options, &summary.step_seconds);
   {
     ColmapDatabase db(database);
     std::map<std::string, int> keypoints;
@@ -849,7 +883,9 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
       .Arg("--Mapper.ba_refine_focal_length", summary.refine_intrinsics == "mapping")
       .Arg("--Mapper.ba_refine_extra_params", summary.refine_intrinsics == "mapping")
       .Arg("--random_seed", options.seed);
-  std::vector<MapperRun> runs = MapWithConsensus(options, map, database, JoinPath(work, "sparse"), n, &summary);
+  std::vector<PairObservations> pair_observations;
+  std::vector<MapperRun> runs =
+      MapWithConsensus(options, map, database, JoinPath(work, "sparse"), n, &summary, &pair_observations);
   const int chosen = summary.chosen_run;
   if (chosen < 0) {
     RELIGHT_USER_ERROR() << "nothing registered: COLMAP's mapper built no model of at least "
@@ -862,6 +898,63 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
   summary.second_model_size = runs[chosen].second_model_size;
   Reconstruction model = std::move(runs[chosen].model);
   runs.clear();
+  // A photo most of whose own verified pairs contradict the kept model has a wrong camera: it leaves the model
+  // (before the final bundle adjustment, which it would pull). A photo that another run placed differently but
+  // whose pairs agree with the kept model stays: its own matches are the direct evidence.
+  {
+    std::set<std::string> contradicted;
+    for (auto& p : summary.photos) {
+      if (model.FindImage(p.colmap_name) == nullptr) continue;
+      if (p.pairs_checked >= 2 && 2 * p.pairs_agreeing < p.pairs_checked) {
+        contradicted.insert(p.colmap_name);
+        p.reason = "its camera contradicts its own photo pairs (" + std::to_string(p.pairs_agreeing) + " of " +
+                   std::to_string(p.pairs_checked) +
+                   " pairs' matches fit it): a wrong registration; photos between it and its neighbours help";
+      } else if (p.unstable) {
+        RLOG_INFO("{}: another mapper run placed it differently, but {} of its {} photo pairs agree with the kept "
+                  "model: kept",
+                  p.colmap_name, p.pairs_agreeing, p.pairs_checked);
+      }
+    }
+    if (!contradicted.empty()) {
+      RLOG_WARN("{} photo(s) left out, their cameras contradicted by their own photo pairs: {}", contradicted.size(),
+                JoinNames(std::vector<std::string>(contradicted.begin(), contradicted.end())));
+      RemoveImages(contradicted, &model);
+      // Registered again against the model without them (COLMAP's image_registrator), they often find their
+      // place (a wrong first pair misplaces its photos, not the model); a photo whose pairs still contradict it
+      // stays out.
+      ColmapCommand reg{"image_registrator", {}};
+      reg.Arg("--database_path", database);
+      for (const auto& [key, value] : map.args) {
+        if (key.rfind("--Mapper.", 0) == 0) reg.Arg(key, value);
+      }
+      Reconstruction registered = RunModelCommand(reg, model, work, "register left-out photos", &summary.step_seconds);
+      ColmapCommand adjust{"bundle_adjuster", {}};
+      adjust.Arg("--BundleAdjustment.refine_focal_length", summary.refine_intrinsics == "mapping")
+          .Arg("--BundleAdjustment.refine_extra_params", summary.refine_intrinsics == "mapping")
+          .Arg("--BundleAdjustment.refine_principal_point", false);
+      registered = RunModelCommand(adjust, registered, work, "adjust after registering", &summary.step_seconds);
+      const TwoViewAgreement check = CheckTwoViewAgreement(registered, pair_observations, kTwoViewMaxErrorPx);
+      // Every photo the registrator added (it tries all that are not in the model) must fit its pairs.
+      std::set<std::string> still_wrong;
+      for (auto& p : summary.photos) {
+        if (model.FindImage(p.colmap_name) != nullptr || registered.FindImage(p.colmap_name) == nullptr) continue;
+        const auto it = check.per_photo.find(p.colmap_name);
+        const int agreeing = it == check.per_photo.end() ? 0 : it->second.first;
+        const int checked = it == check.per_photo.end() ? 0 : it->second.second;
+        if (checked >= 2 && 2 * agreeing >= checked) {
+          RLOG_INFO("{}: registered again, now {} of its {} photo pairs agree", p.colmap_name, agreeing, checked);
+          p.reason.clear();
+          p.pairs_agreeing = agreeing;
+          p.pairs_checked = checked;
+        } else {
+          still_wrong.insert(p.colmap_name);
+        }
+      }
+      RemoveImages(still_wrong, &registered);
+      model = std::move(registered);
+    }
+  }
   // The principal point: a camera shared by many photos constrains it (an off-centre principal point otherwise
   // turns every camera by atan(offset / focal): 0.9 deg on the Middlebury temple, 18 px off in 1520).
   bool refine_pp = options.refine_principal_point == "always";
@@ -882,6 +975,21 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
     RLOG_INFO("final bundle adjustment: reprojection error {:.3f} -> {:.3f} px", model.MeanReprojectionError(),
               refined.MeanReprojectionError());
     model = std::move(refined);
+  }
+
+  // A weakly constrained photo can reach a degenerate camera (a telephoto from far away) with a normal
+  // reprojection error; it is dropped with its reason.
+  const std::map<std::string, std::string> implausible = RemoveImplausibleCameras(&model);
+  for (auto& p : summary.photos) {
+    if (auto it = implausible.find(p.colmap_name); it != implausible.end()) p.reason = it->second;
+  }
+  if (!implausible.empty()) {
+    RLOG_WARN("{} photo(s) left out with implausible cameras: {}", implausible.size(),
+              JoinNames([&] {
+                std::vector<std::string> names;
+                for (const auto& [name, why] : implausible) names.push_back(name);
+                return names;
+              }()));
   }
 
   // Name maps and reasons for photos left out of the largest model.
@@ -1172,6 +1280,57 @@ Sim3 UpAlignment(const Reconstruction& reconstruction) {
   return t;
 }
 
+void RemoveImages(const std::set<std::string>& names, Reconstruction* model) {
+  std::set<uint32_t> kept;
+  for (auto it = model->images.begin(); it != model->images.end();) {
+    if (names.count(it->second.name)) {
+      it = model->images.erase(it);
+    } else {
+      kept.insert(it->first);
+      ++it;
+    }
+  }
+  for (auto it = model->points3d.begin(); it != model->points3d.end();) {
+    auto& track = it->second.track;
+    track.erase(std::remove_if(track.begin(), track.end(), [&](const auto& e) { return !kept.count(e.first); }),
+                track.end());
+    it = track.size() < 2 ? model->points3d.erase(it) : std::next(it);
+  }
+  for (auto& [id, image] : model->images) {
+    for (auto& p2 : image.points2d) {
+      if (p2.point3d_id != Point2D::kInvalidPoint3D && !model->points3d.count(p2.point3d_id)) {
+        p2.point3d_id = Point2D::kInvalidPoint3D;
+      }
+    }
+  }
+}
+
+std::map<std::string, std::string> RemoveImplausibleCameras(Reconstruction* model) {
+  std::map<std::string, std::string> removed;
+  std::set<std::string> names;
+  for (const auto& [id, image] : model->images) {
+    const Camera& camera = model->cameras.at(image.camera_id);
+    const double longer_side = std::max(camera.width, camera.height);
+    const double focal_ratio = camera.FocalX() / longer_side;
+    const size_t first_distortion = camera.model == "SIMPLE_RADIAL" || camera.model == "RADIAL" ? 3
+                                    : camera.model == "OPENCV"                                   ? 4
+                                                                                                 : camera.params.size();
+    double largest_distortion = 0;
+    for (size_t k = first_distortion; k < camera.params.size(); ++k) {
+      largest_distortion = std::max(largest_distortion, std::abs(camera.params[k]));
+    }
+    if (!(focal_ratio >= kMinFocalRatio && focal_ratio <= kMaxFocalRatio && largest_distortion <= kMaxDistortion)) {
+      removed[image.name] = fmt::format(
+          "registered with an implausible camera (focal length {:.3g} px for a {} px photo, distortion {:.3g}): too "
+          "few matches constrain it; photos between it and its neighbours help",
+          camera.FocalX(), static_cast<int>(longer_side), largest_distortion);
+      names.insert(image.name);
+    }
+  }
+  RemoveImages(names, model);
+  return removed;
+}
+
 std::vector<std::string> ConformToPhotos(const std::vector<IngestedPhoto>& photos, const std::string& where,
                                          Reconstruction* model) {
   std::map<std::string, const IngestedPhoto*> by_name, by_file;
@@ -1331,7 +1490,11 @@ void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
     if (p.num_keypoints >= 0) e["num_keypoints"] = p.num_keypoints;
     if (p.num_matched_photos >= 0) e["num_matched_photos"] = p.num_matched_photos;
     if (!p.registered) e["reason"] = p.reason;
-    if (p.registered && p.unstable) e["unstable"] = true;
+    if (p.unstable) e["unstable"] = true;
+    if (p.pairs_checked > 0) {
+      e["pairs_checked"] = p.pairs_checked;
+      e["pairs_agreeing"] = p.pairs_agreeing;
+    }
     photos.push_back(e);
   }
   j["photos"] = photos;

@@ -20,6 +20,8 @@
 // mean tilt.
 #pragma once
 
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -37,7 +39,9 @@ struct SfmPhoto {
   int num_keypoints = -1;       // SIFT features (-1: not extracted, e.g. ground_truth mode)
   int num_matched_photos = -1;  // photos with verified matches (-1: unknown)
   std::string reason;           // why it is not registered
-  bool unstable = false;        // registered, but a mapper run that agrees overall placed it differently
+  bool unstable = false;        // a mapper run that agrees overall placed it differently, or its pairs contradict it
+  int pairs_checked = 0;        // its verified photo pairs checked against the kept model (model_consensus.h)
+  int pairs_agreeing = 0;       // ... whose matches the model's epipolar geometry explains (fewer than half: left out)
 };
 
 // One run of COLMAP's incremental mapper (model_consensus.h), for the summary.
@@ -91,6 +95,19 @@ SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, cons
 // (−y of the images, in world coordinates) to +Z. Identity when the cameras
 // disagree so much that the mean vanishes.
 Sim3 UpAlignment(const Reconstruction& reconstruction);
+
+// Removes the images whose camera COLMAP would call bogus (its own mapper's limits): a focal length outside
+// [kMinFocalRatio, kMaxFocalRatio] x the longer image side, or a distortion coefficient beyond kMaxDistortion in
+// magnitude; their observations leave the tracks (points left with fewer than 2 go). Returns image name -> reason.
+// The mapper applies these limits only while it refines intrinsics; a final bundle adjustment can still reach
+// such a camera for a photo that few matches constrain.
+inline constexpr double kMinFocalRatio = 0.1;
+inline constexpr double kMaxFocalRatio = 10;
+inline constexpr double kMaxDistortion = 1;
+std::map<std::string, std::string> RemoveImplausibleCameras(Reconstruction* model);
+// Removes the named images and their observations (points left with fewer than 2 go; other images' references to
+// removed points are cleared).
+void RemoveImages(const std::set<std::string>& names, Reconstruction* model);
 
 // Fits a model to the ingested photos: images are matched by manifest name,
 // else by the file name in <ingest>/images; they are renamed to the manifest

@@ -11,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kSfmStage{
-    "sfm", "Structure from motion with COLMAP: camera poses and intrinsics in a +Z-up world frame", 2};
+    "sfm", "Structure from motion with COLMAP: camera poses and intrinsics in a +Z-up world frame", 3};
 
 struct SfmOptions {
   std::string mode = "colmap";  // colmap: run COLMAP; ground_truth: <ingest>/ground_truth cameras; model: `model`.
@@ -24,7 +24,7 @@ struct SfmOptions {
   std::string vocab_tree;                      // Vocabulary-tree file (COLMAP's FLANN format) for vocab_tree matching.
   int sequential_overlap = 10;                 // Neighbours each photo is matched with by the sequential matcher.
   int max_image_size = 1600;                // Longest side SIFT sees (pixels); larger photos are downscaled for SIFT.
-  int max_num_features = 8192;              // SIFT features per photo.
+  int max_num_features = 8192;              // Grey SIFT features per photo, and at most as many colour ones.
   int min_model_size = 3;                   // Smallest reconstruction COLMAP keeps (photos).
   int abs_pose_min_num_inliers = 15;        // Inliers needed to register a photo (COLMAP default 30; see COLMAP.md).
   double abs_pose_min_inlier_ratio = 0.25;  // Inlier ratio needed to register a photo.
@@ -67,7 +67,11 @@ struct SfmOptions {
     t->Add("max_image_size", &max_image_size,
            "Longest side in pixels SIFT works on; larger costs memory and time, smaller loses features.")
         .Min(100);
-    t->Add("max_num_features", &max_num_features, "SIFT features per photo.").Min(100);
+    t->Add("max_num_features", &max_num_features,
+           "Grey SIFT features per photo; SIFT features of the photo's colour (log-chromaticity), which survive "
+           "changes of light, are added, at most as many. Fewer match faster, more register weakly "
+           "textured photos.")
+        .Min(100);
     t->Add("min_model_size", &min_model_size, "Smallest reconstruction (photos) COLMAP keeps.").Min(2);
     t->Add("abs_pose_min_num_inliers", &abs_pose_min_num_inliers,
            "Inlier matches needed to register a photo; lower registers weakly linked photos, at some risk.")

@@ -72,6 +72,51 @@ TEST(UpAlignment, MeanCameraUpBecomesPlusZ) {
   EXPECT_NEAR(t.rotation.determinant(), 1.0, 1e-9);
 }
 
+// A photo whose final bundle adjustment ran off to a telephoto from far away (as one of synthetic_bunny's did:
+// focal 1.9e6 px for a 518 px photo, distortion 2.3e6) leaves the model with its reason; the other photos keep
+// their points, and a point seen by the removed photo and only one other goes.
+TEST(RemoveImplausibleCameras, DropsDegenerateIntrinsicsAndTheirObservations) {
+  Reconstruction model = TempleTruth();
+  ASSERT_GE(model.images.size(), 3u);
+  auto it = model.images.begin();
+  const ImageRecord& a = (it++)->second;
+  const ImageRecord& b = (it++)->second;
+  const ImageRecord& c = it->second;
+  // Its own camera for the degenerate photo, and one with distortion beyond 1 for another.
+  for (const auto& [image_id, params] : std::vector<std::pair<uint32_t, std::vector<double>>>{
+           {a.image_id, {1.9e6, 320, 240, 2.3e6}}, {b.image_id, {1500, 320, 240, -1.5}}}) {
+    Camera camera = model.cameras.at(model.images.at(image_id).camera_id);
+    camera.camera_id = 100 + image_id;
+    camera.model = "SIMPLE_RADIAL";
+    camera.params = params;
+    model.cameras[camera.camera_id] = camera;
+    model.images.at(image_id).camera_id = camera.camera_id;
+  }
+  const std::string name_a = a.name, name_b = b.name;
+  const uint32_t id_a = a.image_id, id_c = c.image_id;
+  // One point seen by a and c, one by a, c and the temple's remaining photos' first image after c.
+  model.images.at(id_a).points2d = {Point2D{{10, 10}, 1}, Point2D{{20, 20}, 2}};
+  model.images.at(id_c).points2d = {Point2D{{11, 11}, 1}, Point2D{{21, 21}, 2}};
+  const uint32_t id_d = std::next(model.images.find(id_c))->first;
+  model.images.at(id_d).points2d = {Point2D{{22, 22}, 2}};
+  model.points3d[1] = Point3D{1, {0, 0, 0}, {}, 0, {{id_a, 0}, {id_c, 0}}};
+  model.points3d[2] = Point3D{2, {0, 0, 0}, {}, 0, {{id_a, 1}, {id_c, 1}, {id_d, 0}}};
+  const size_t num_images = model.images.size();
+
+  const std::map<std::string, std::string> removed = RemoveImplausibleCameras(&model);
+  ASSERT_EQ(removed.size(), 2u);
+  EXPECT_NE(removed.at(name_a).find("focal length 1.9e+06 px"), std::string::npos) << removed.at(name_a);
+  EXPECT_NE(removed.at(name_b).find("distortion 1.5"), std::string::npos) << removed.at(name_b);
+  EXPECT_EQ(model.images.size(), num_images - 2);
+  EXPECT_EQ(model.points3d.count(1), 0u);  // seen by c alone now
+  ASSERT_EQ(model.points3d.count(2), 1u);
+  EXPECT_EQ(model.points3d.at(2).track.size(), 2u);
+  EXPECT_EQ(model.images.at(id_c).points2d[0].point3d_id, Point2D::kInvalidPoint3D);
+  EXPECT_EQ(model.images.at(id_c).points2d[1].point3d_id, 2u);
+  // The temple's own cameras (focal 1520 px for 640 px photos: 2.4) stay.
+  EXPECT_TRUE(RemoveImplausibleCameras(&model).empty());
+}
+
 // The whole stage on the temple ring plus an EXR copy of one view and an
 // unrelated noise photo: the noise photo must be reported as dropped, the
 // EXR one tone-mapped and registered, the cameras accurate.
