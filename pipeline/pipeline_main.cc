@@ -3,10 +3,13 @@
 //   pipeline run CONFIG [--workspace DIR] [--from STAGE] [--only STAGE] [--force STAGE] [--until STAGE]
 //   pipeline status CONFIG        pipeline clean CONFIG [--keep-latest]
 //   pipeline report CONFIG        pipeline stages        pipeline options [STAGE]
+//   pipeline render CONFIG --cameras MODEL_DIR --envmap FILE [--envmap-convention C] [--rotate-deg R]
+//                          [--strength S] --out DIR
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <sstream>
 
 #include "core/error.h"
@@ -18,6 +21,9 @@
 #include "pipeline/runner.h"
 #include "pipeline/stage_graph.h"
 #include "pipeline/subprocess.h"
+#ifdef RELIGHT_HAVE_RELIGHT
+#include "relight/relight_options.h"
+#endif
 
 namespace relight::pipeline {
 namespace {
@@ -134,6 +140,60 @@ int CmdRun(const CommonArgs& args, const RunRequest& request, bool report_only) 
   return 0;
 }
 
+// What `pipeline render` passes on to `render_cameras` (pipeline/render_cameras_main.cc).
+struct RenderArgs {
+  std::string cameras, envmap, convention = "relight", out, renderer;
+  double rotate_deg = 0, strength = 1;
+  int max_size = 0;
+};
+
+// Runs the stages the model needs (up to inverse; cached ones are reused), then `render_cameras` on them.
+int CmdRender(const CommonArgs& args, const RenderArgs& render) {
+  int code = CmdRun(args, RunRequest{"", "", "inverse", {}}, false);
+  if (code != 0) return code;
+  const ResolvedConfig config(LoadDocument(args), AllStages());
+  const std::string workspace = ResolveWorkspace(args, config);
+  InitLogging("pipeline", JoinPath(workspace, "pipeline.log"), LogLevel::kInfo);
+  Runner runner(AllStages(), config, workspace, ExecutableDir());
+  std::map<std::string, std::string> dirs;
+  for (const StageRecord& r : runner.Plan())
+    if (r.status == "cached") dirs[r.name] = r.output_dir;
+  if (!dirs.count("inverse")) RELIGHT_USER_ERROR() << "the inverse stage has no result for this config";
+  std::string renderer = render.renderer;
+  double occluder_albedo = 0.35;
+#ifdef RELIGHT_HAVE_RELIGHT
+  const RelightOptions& relight = config.Get<RelightOptions>("relight");
+  if (renderer.empty()) renderer = relight.renderer;
+  occluder_albedo = relight.occluder_albedo;
+#endif
+  if (renderer.empty()) renderer = "transport";
+  std::vector<std::string> argv{JoinPath(ExecutableDir(), "render_cameras"),
+                                "--inverse", dirs["inverse"],
+                                "--cameras", render.cameras,
+                                "--envmap", render.envmap,
+                                "--envmap-convention", render.convention,
+                                "--rotate-deg", std::to_string(render.rotate_deg),
+                                "--strength", std::to_string(render.strength),
+                                "--out", render.out,
+                                "--renderer", renderer,
+                                "--max-size", std::to_string(render.max_size),
+                                "--occluder-albedo", std::to_string(occluder_albedo)};
+  if (dirs.count("mesh")) argv.insert(argv.end(), {"--mesh", dirs["mesh"]});
+  if (dirs.count("visibility")) argv.insert(argv.end(), {"--visibility", dirs["visibility"]});
+  RLOG_INFO("render: {}", [&] {
+    std::string line;
+    for (const auto& a : argv) line += ShellWord(a) + " ";
+    return line;
+  }());
+  const ProcessResult result = RunProcess(argv);
+  if (!result.ok()) {
+    std::cerr << "pipeline: render_cameras failed (" << result.Describe() << ")\n";
+    return result.signaled ? 128 + result.signal : (result.exit_code == kExitUserError ? kExitUserError : 1);
+  }
+  std::cerr << "render: " << JoinPath(render.out, "render_summary.json") << "\n";
+  return 0;
+}
+
 int CmdStatus(const CommonArgs& args) {
   const ResolvedConfig config(LoadDocument(args), AllStages());
   const std::string workspace = ResolveWorkspace(args, config);
@@ -212,6 +272,26 @@ int Main(int argc, char** argv) {
   clean->add_flag("--keep-latest", keep_latest, "Keep the entries the current config uses");
   auto* report = app.add_subcommand("report", "Run what is needed and write <workspace>/report/index.html");
   AddCommon(report, &common);
+  RenderArgs render_args;
+  auto* render = app.add_subcommand(
+      "render", "Run what the model needs, then render it from COLMAP cameras under an environment map");
+  AddCommon(render, &common);
+  render->add_option("--cameras", render_args.cameras, "COLMAP model folder (cameras, images) in the model's frame, "
+                                                       "e.g. <workspace>/stages/sfm/sparse")
+      ->required();
+  render->add_option("--envmap", render_args.envmap, "The light: lat-long (2:1) or octahedral (square) .exr/.hdr")
+      ->required();
+  render->add_option("--envmap-convention", render_args.convention,
+                     "How the map's columns name directions: relight, blender (Cycles' world) or mitsuba "
+                     "(Mitsuba 3 envmap, +Y up); docs/FORMATS.md")
+      ->capture_default_str();
+  render->add_option("--rotate-deg", render_args.rotate_deg, "Turn the light about +Z, from +X towards +Y [deg]")
+      ->capture_default_str();
+  render->add_option("--strength", render_args.strength, "Scale of the light's radiance")->capture_default_str();
+  render->add_option("--out", render_args.out, "Output folder")->required();
+  render->add_option("--renderer", render_args.renderer, "transport or monte_carlo (default: relight.renderer)");
+  render->add_option("--max-size", render_args.max_size, "Longer image side in pixels (0: the cameras' sizes)")
+      ->capture_default_str();
   app.add_subcommand("stages", "List the stages with one-line descriptions");
   std::string options_stage;
   bool markdown = false;
@@ -230,6 +310,7 @@ int Main(int argc, char** argv) {
       return CmdRun(common, request, false);
     }
     if (report->parsed()) return CmdRun(common, RunRequest{}, true);
+    if (render->parsed()) return CmdRender(common, render_args);
     if (status->parsed()) return CmdStatus(common);
     if (clean->parsed()) return CmdClean(common, keep_latest);
     if (options->parsed()) return CmdOptions(options_stage, markdown);

@@ -93,8 +93,8 @@ const std::vector<StageDef>& AllStages() {
                  nullptr});
 #endif
 #ifdef RELIGHT_HAVE_RELIGHT
-    s.push_back({kRelightStage, "", {"ingest", "sfm", "mesh", "inverse"}, Make<RelightOptions>(kRelightStage),
-                 nullptr});
+    s.push_back({kRelightStage, "", {"ingest", "sfm", "mesh", "visibility", "inverse"},
+                 Make<RelightOptions>(kRelightStage), nullptr});
 #endif
 #ifdef RELIGHT_HAVE_EVALUATE
     s.push_back({kEvaluateStage,

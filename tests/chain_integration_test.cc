@@ -4,7 +4,8 @@
 // inverse -> relight -> evaluate -> report as subprocesses (about 4 minutes on
 // an idle 2-core machine). The test checks the camera, mesh and relighting
 // accuracy in report/metrics.json against ranges, that a second run reruns
-// nothing, and that a changed solver option reuses everything before `inverse`.
+// nothing, that `pipeline render` renders the photos' cameras under a new map without rerunning a stage,
+// and that a changed solver option reuses everything before `inverse`.
 //
 // Measured on 2026-11-22 over eight runs (docs/RESULTS.md, "The whole chain"):
 // rotation 0.10-0.14 deg, centre 0.27-0.45% of the scene radius, mesh Chamfer
@@ -88,6 +89,30 @@ TEST(ChainIntegrationTest, SyntheticTinyEndToEndIsAccurateAndCached) {
   {
     const Json summary = ReadJsonFile(ws + "/summary.json");
     for (const std::string& stage : chain) EXPECT_EQ(StageEntry(summary, stage).value("status", ""), "cached") << stage;
+  }
+
+  // `pipeline render`: the model from the photos' cameras under a Blender-convention map, turned and scaled,
+  // with every stage cached (nothing reruns) and one image per registered photo.
+  const std::string envmap = "/usr/share/blender/datafiles/studiolights/world/sunset.exr";
+  ASSERT_TRUE(fs::is_regular_file(envmap)) << "blender-data is missing (tools/setup_debian.sh installs it)";
+  ASSERT_EQ(testing::RunCommand(pipeline + "render " + config + " --workspace " + ws + " --cameras " + ws +
+                                    "/stages/sfm/sparse --envmap " + envmap +
+                                    " --envmap-convention blender --rotate-deg 45 --strength 2 --max-size 64 --out " +
+                                    ws + "/render_test",
+                                &out),
+            0)
+      << out;
+  {
+    const Json summary = ReadJsonFile(ws + "/summary.json");
+    for (const std::string& stage : {"sfm", "mvs", "visibility", "inverse"})
+      EXPECT_EQ(StageEntry(summary, stage).value("status", ""), "cached") << stage;
+    const Json render = ReadJsonFile(ws + "/render_test/render_summary.json");
+    EXPECT_EQ(render["convention"], "blender");
+    ASSERT_EQ(render["images"].size(), 20u);
+    for (const Json& image : render["images"]) {
+      EXPECT_TRUE(fs::is_regular_file(ws + "/render_test/" + image["png"].get<std::string>())) << image.dump();
+      EXPECT_LE(image["camera"]["width"].get<int>(), 64);
+    }
   }
 
   // A changed solver option reruns the inverse rendering only (up to --until). The option is

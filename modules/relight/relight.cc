@@ -23,6 +23,8 @@
 #include "relight/display.h"
 #include "relight/gltf_export.h"
 #include "relight/ground_truth_frame.h"
+#include "relight/transport_render.h"
+#include "relight/viewer_export.h"
 #include "render/lighting.h"
 #include "render/render_view.h"
 #include "render/rng.h"
@@ -320,6 +322,7 @@ OrderedJson RelightSummary::ToJson() const {
   j["turntable_gif"] = turntable_gif;
   j["notes"] = notes;
   j["export"] = exported.ToJson();
+  j["viewer"] = viewer;
   OrderedJson list = OrderedJson::array();
   for (const auto& r : renders) {
     OrderedJson e;
@@ -613,6 +616,31 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
             summary.exported.model, summary.exported.vertices, summary.exported.triangles, summary.exported.primitives,
             summary.exported.envmaps.size(), summary.exported.albedo_scale);
 
+  // The visibility maps (transport renderer and viewer) and the resolution of the recovered maps.
+  const std::string visibility_path = in.visibility_dir.empty() ? "" : JoinPath(in.visibility_dir, "visibility.bin");
+  const bool have_visibility = !visibility_path.empty() && fs::is_regular_file(visibility_path);
+  VisibilityData visibility;
+  if (have_visibility) visibility = ReadVisibility(visibility_path);
+  int env_resolution = 32;
+  if (const std::string path = JoinPath(in.inverse_dir, "lighting.json"); fs::is_regular_file(path)) {
+    const Json lighting = ReadJsonFile(path);
+    if (lighting.contains("env_resolution")) env_resolution = lighting.at("env_resolution").get<int>();
+  }
+  // The interactive viewer (relight/viewer_export.h), under each photo's recovered map and each new map.
+  if (have_visibility) {
+    std::vector<std::pair<std::string, EnvMap>> maps;
+    for (const RecoveredPhoto& photo : photos) maps.emplace_back(Stem(photo.name), photo.envmap);
+    for (size_t m = 0; m < file_lights.size(); ++m) maps.emplace_back(file_lights[m].first, file_maps[m]);
+    ViewerOptions vo;
+    vo.env_resolution = env_resolution;
+    vo.tonemap_percentile = o.tonemap_percentile;
+    const ViewerExport viewer = WriteViewerAssets(JoinPath(output_dir, "export/viewer"), model, visibility, maps, vo);
+    summary.viewer = "export/viewer/viewer.html";
+    RLOG_INFO("viewer: {}", viewer.BriefReport());
+  } else {
+    summary.notes.push_back("no interactive viewer: the visibility stage's maps were not given");
+  }
+
   // Render what is missing.
   for (const auto& dir : {"rerender", "heldout", "novel", "albedo", "material", "turntable"})
     EnsureDir(JoinPath(output_dir, std::string("renders/") + dir));
@@ -624,13 +652,35 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   base.pixel_samples_per_axis = o.pixel_samples_per_axis;
   base.light_samples = o.light_samples;
   base.brdf_samples = o.brdf_samples;
+  TransportRenderOptions transport_options;
+  transport_options.pixel_samples_per_axis = o.pixel_samples_per_axis;
+  const bool use_transport = o.renderer == "transport";
+  std::unique_ptr<TransportRenderer> transport;
+  // The last job of each light: what the transport renderer keeps for it is dropped after it.
+  std::map<const Lighting*, size_t> last_use;
   int64_t tiles = 0;
-  for (const auto& job : jobs)
-    if (!job.flat && !done(job)) tiles += NumTiles(job.record.camera.camera, base);
+  for (size_t k = 0; k < jobs.size(); ++k) {
+    const Job& job = jobs[k];
+    if (job.flat || done(job)) continue;
+    tiles += use_transport ? TransportRenderer::NumBands(job.record.camera.camera, transport_options)
+                           : NumTiles(job.record.camera.camera, base);
+    last_use[job.lighting.get()] = k;
+  }
+  if (use_transport && tiles > 0) {
+    if (!have_visibility) {
+      RELIGHT_USER_ERROR() << "relight.renderer: transport needs the visibility stage's maps"
+                           << (visibility_path.empty() ? "" : " ('" + visibility_path + "' is missing)")
+                           << "; run the visibility stage (or set relight.renderer: monte_carlo)";
+    }
+    transport = std::make_unique<TransportRenderer>(scene, visibility, env_resolution);
+    RLOG_INFO("transport renderer: {}x{} visibility maps, light filtered to {}x{} octahedral texels",
+              visibility.resolution, visibility.resolution, env_resolution, env_resolution);
+  }
   double turntable_exposure = -1;
   {
     Progress progress("relight renders", std::max<int64_t>(tiles, 1));
-    for (Job& job : jobs) {
+    for (size_t k = 0; k < jobs.size(); ++k) {
+      Job& job = jobs[k];
       RenderRecord& r = job.record;
       const std::string exr = JoinPath(output_dir, r.exr), png = JoinPath(output_dir, r.png),
                         mask_path = JoinPath(output_dir, r.mask);
@@ -650,15 +700,22 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
         mask = ReadMask(mask_path);
         ++summary.reused;
       } else {
-        RenderOptions ro = base;
-        if (r.kind == "heldout" || r.kind == "rerender") {  // scored by evaluate
-          ro.light_samples = std::max(ro.light_samples, o.scored_samples);
-          ro.brdf_samples = std::max(ro.brdf_samples, o.scored_samples);
+        RenderedView view;
+        if (transport) {
+          TransportRenderOptions to = transport_options;
+          to.background = job.background;
+          view = transport->Render(*job.lighting, r.camera.camera, r.camera.pose, to, &progress);
+          if (last_use[job.lighting.get()] == k) transport->Forget(*job.lighting);
+        } else {
+          RenderOptions ro = base;
+          if (r.kind == "heldout" || r.kind == "rerender") {  // scored by evaluate
+            ro.light_samples = std::max(ro.light_samples, o.scored_samples);
+            ro.brdf_samples = std::max(ro.brdf_samples, o.scored_samples);
+          }
+          ro.background = job.background;
+          ro.seed = MixSeed(uint64_t(o.seed), job.stream);
+          view = RenderView(scene, *job.lighting, r.camera.camera, r.camera.pose, ro, job.view_index, &progress);
         }
-        ro.background = job.background;
-        ro.seed = MixSeed(uint64_t(o.seed), job.stream);
-        const RenderedView view =
-            RenderView(scene, *job.lighting, r.camera.camera, r.camera.pose, ro, job.view_index, &progress);
         radiance = view.radiance;
         mask = view.mask;
         r.seconds = view.seconds;

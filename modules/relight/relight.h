@@ -1,7 +1,8 @@
 // The `relight` stage: renders the recovered model — the mesh with the
 // per-vertex material weights and materials of the `inverse` stage, plus
-// <mesh>/occluders.ply as shadow casters — with the project's Monte Carlo
-// renderer (render/render_view.h, the conventions of the synthetic
+// <mesh>/occluders.ply as shadow casters — from its precomputed transport
+// (relight/transport_render.h, noise-free; the default) or with the project's
+// Monte Carlo renderer (render/render_view.h, the conventions of the synthetic
 // generator), under
 //   (a) each input photo's recovered environment map, from that photo's camera
 //       (re-renderings, scored by `evaluate`);
@@ -19,6 +20,8 @@
 //   export/model.glb, export/envmaps/<stem>.exr, export/scene.json
 //                               the model as glTF 2.0 for Blender with each photo's recovered map and camera
 //                               (relight/gltf_export.h); rewritten on every run
+//   export/viewer/viewer.html, export/viewer/viewer_data.js
+//                               the interactive WebGL viewer (relight/viewer_export.h); rewritten on every run
 //   relight_summary.json        index of every image with its camera and light (RelightIndex below)
 // Every image is written atomically; a rerun in the same folder renders only what is missing.
 #pragma once
@@ -94,6 +97,7 @@ struct RelightSummary {
   std::string frame_method;        // ground-truth frame relation (relight/ground_truth_frame.h) or "none"
   std::string turntable_gif;       // relative path; empty when none
   ExportRecord exported;           // the export folder (relight/gltf_export.h)
+  std::string viewer;              // the interactive viewer page, relative; empty when none
   std::vector<std::string> notes;  // what was skipped and why
   double seconds = 0;
 
@@ -114,6 +118,7 @@ struct RelightInputs {
   std::string sfm_dir;      // cameras of the photos (sparse/)
   std::string mesh_dir;     // occluders.ply
   std::string inverse_dir;  // reflectance.ply, materials.json, lighting.json, envmaps/
+  std::string visibility_dir;  // visibility.bin (relight.renderer: transport)
 };
 
 // Runs the stage into `output_dir` (which exists).

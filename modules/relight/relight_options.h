@@ -13,7 +13,7 @@
 namespace relight {
 
 inline const StageInfo kRelightStage{
-    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 4};
+    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 5};
 
 struct RelightOptions {
   // What to render.
@@ -40,8 +40,9 @@ struct RelightOptions {
   double turntable_fps = 12;                     // frames per second of the animation
   std::string turntable_light = "first_envmap";  // first_envmap (first of envmaps) or recovered (first photo's)
 
-  // Sampling and display.
-  int pixel_samples_per_axis = 2;  // antialiasing: k x k jittered camera rays per pixel
+  // Rendering and display.
+  std::string renderer = "transport";  // transport (the model's precomputed transport, noise-free) or monte_carlo
+  int pixel_samples_per_axis = 2;  // antialiasing: k x k camera rays per pixel
   int light_samples = 8;           // environment importance samples per shading point
   int brdf_samples = 8;            // BRDF importance samples per shading point
   int scored_samples = 32;         // at least this many environment and BRDF samples in the renders evaluate scores
@@ -97,16 +98,23 @@ struct RelightOptions {
            "Light of the turntable: first_envmap (the first of relight.envmaps, else the first photo's recovered "
            "map) or recovered (the first photo's recovered map).")
         .Choices({"first_envmap", "recovered"});
+    t->Add("renderer", &renderer,
+           "transport: each vertex's radiance from its visibility map, BRDF and the light filtered to the recovered "
+           "maps' resolution (the inverse stage's own forward model), interpolated across triangles: noise-free "
+           "and fast. monte_carlo: the path-traced reference, per pixel with the full-resolution light; choose it "
+           "for lights sharper than the recovered maps (a small sun's crisp shadows and highlights) or meshes "
+           "coarser than the image's pixels. The sampling options below apply to monte_carlo only.")
+        .Choices({"transport", "monte_carlo"});
     t->Add("pixel_samples_per_axis", &pixel_samples_per_axis,
-           "Antialiasing: a jittered k x k grid of camera rays per pixel.")
+           "Antialiasing: a k x k grid of camera rays per pixel (jittered with monte_carlo).")
         .Range(1, 16);
-    t->Add("light_samples", &light_samples, "Environment importance samples per shading point.").Range(0, 1024);
-    t->Add("brdf_samples", &brdf_samples, "BRDF importance samples per shading point (MIS).").Range(0, 1024);
+    t->Add("light_samples", &light_samples, "monte_carlo: environment importance samples per shading point.")
+        .Range(0, 1024);
+    t->Add("brdf_samples", &brdf_samples, "monte_carlo: BRDF importance samples per shading point (MIS).")
+        .Range(0, 1024);
     t->Add("scored_samples", &scored_samples,
-           "The renders evaluate scores (re-renderings of the photos, held-out views) use at least this many "
-           "environment and at least this many BRDF samples per shading point: their Monte Carlo noise would "
-           "otherwise cap the scores (at 8 + 8 samples the synthetic bunny's relighting PSNR stays at 27.8 dB "
-           "even with the true model; 31.0 dB at 32 + 32).")
+           "monte_carlo: the renders evaluate scores (re-renderings of the photos, held-out views) use at least "
+           "this many environment and BRDF samples per shading point, so that noise does not cap their scores.")
         .Range(1, 1024);
     t->Add("background", &background, "New views show the environment map behind the object (else black).");
     t->Add("occluder_albedo", &occluder_albedo,
@@ -116,7 +124,7 @@ struct RelightOptions {
     t->Add("tonemap_percentile", &tonemap_percentile,
            "PNG exposure: this percentile of the object pixels' luminance maps to white, then the sRGB curve.")
         .Range(50, 100);
-    t->Add("seed", &seed, "Seed of the Monte Carlo sample streams.");
+    t->Add("seed", &seed, "monte_carlo: seed of the sample streams.");
   }
   void Check() const {
     if (light_samples + brdf_samples < 1) {

@@ -646,6 +646,16 @@ class ReportBuilder {
       << html::Escape(exported_.scene) << "\">scene.json</a> (which of the " << exported_.envmaps.size()
       << " environment maps in export/envmaps/ and which camera belong to which photo). Conventions and the "
          "import into Blender: docs/FORMATS.md, \"Export\".</p>\n";
+    // The interactive viewer (relight/viewer_export.h), copied beside the page when the relight stage wrote it.
+    const std::string viewer = "export/viewer/viewer.html", viewer_data = "export/viewer/viewer_data.js";
+    if (IsFile(JoinPath(relight_dir, viewer)) && IsFile(JoinPath(relight_dir, viewer_data))) {
+      EnsureDir(JoinPath(out_, "export/viewer"));
+      for (const std::string& f : {viewer, viewer_data})
+        WriteFileAtomic(JoinPath(out_, f), ReadFileToString(JoinPath(relight_dir, f)));
+      s << "<p class=\"def\"><a href=\"" << viewer
+        << "\">Interactive viewer</a>: the model relit in the browser (WebGL) under each map, with sliders "
+           "for the light's turn about +Z, the camera and the exposure (docs/FORMATS.md, \"Viewer\").</p>\n";
+    }
   }
 
   void ConvergenceSection(std::ostringstream& s) {

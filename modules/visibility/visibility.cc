@@ -129,6 +129,34 @@ std::vector<Eigen::Vector3f> HemiOctSampleDirections(int n, int ss) {
   return dirs;
 }
 
+std::vector<SparseCoefficients> CompressVisibilityMaps(const std::vector<float>& maps, size_t count,
+                                                       const VisibilityOptions& options) {
+  const int n = options.resolution;
+  const size_t per_map = size_t(n) * n;
+  RELIGHT_CHECK_EQ(maps.size(), count * per_map);
+  std::vector<SparseCoefficients> sparse(count);
+  tbb::parallel_for(size_t(0), count, [&](size_t q) {
+    std::vector<float> coeffs(per_map);
+    HaarForward(maps.data() + q * per_map, n, coeffs.data());
+    sparse[q] = options.keep_energy >= 1.0 ? SparseFromDense(coeffs.data(), n)
+                                           : KeepEnergy(coeffs.data(), n, options.keep_energy);
+  });
+  return sparse;
+}
+
+VisibilityData ComputeVisibility(const TriangleMesh& mesh, const RayCaster& caster, const VisibilityOptions& options) {
+  std::vector<uint32_t> all(mesh.num_vertices());
+  for (size_t v = 0; v < all.size(); ++v) all[v] = static_cast<uint32_t>(v);
+  std::vector<float> maps;
+  BakeVisibilityMaps(mesh, caster, all, options, &maps);
+  VisibilityData data;
+  data.resolution = options.resolution;
+  data.supersampling = options.supersampling;
+  data.keep_energy = static_cast<float>(options.keep_energy);
+  data.per_vertex = CompressVisibilityMaps(maps, all.size(), options);
+  return data;
+}
+
 void BakeVisibilityMaps(const TriangleMesh& mesh, const RayCaster& caster, const std::vector<uint32_t>& vertices,
                         const VisibilityOptions& o, std::vector<float>* maps) {
   const int n = o.resolution, ss = o.supersampling;
@@ -227,13 +255,7 @@ VisibilitySummary RunVisibility(const VisibilityOptions& options, const std::str
       Timer ray_timer;
       BakeVisibilityMaps(mesh, caster, ids, options, &maps);
       ray_seconds += ray_timer.Seconds();
-      sparse.resize(ids.size());
-      tbb::parallel_for(size_t(0), ids.size(), [&](size_t q) {
-        std::vector<float> coeffs(per_map);
-        HaarForward(maps.data() + q * per_map, n, coeffs.data());
-        sparse[q] = options.keep_energy >= 1.0 ? SparseFromDense(coeffs.data(), n)
-                                               : KeepEnergy(coeffs.data(), n, options.keep_energy);
-      });
+      sparse = CompressVisibilityMaps(maps, ids.size(), options);
       WriteFileAtomic(chunk_path, EncodeVertices(sparse, 0, sparse.size()));
     }
     for (size_t v = begin; v < end; ++v) {

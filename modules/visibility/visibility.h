@@ -43,6 +43,15 @@ std::vector<Eigen::Vector3f> HemiOctSampleDirections(int resolution, int supersa
 void BakeVisibilityMaps(const TriangleMesh& mesh, const RayCaster& caster, const std::vector<uint32_t>& vertices,
                         const VisibilityOptions& options, std::vector<float>* maps);
 
+// The sparse Haar form (as the stage stores it: options.keep_energy) of dense maps from BakeVisibilityMaps,
+// `count` maps of options.resolution² texels.
+std::vector<SparseCoefficients> CompressVisibilityMaps(const std::vector<float>& maps, size_t count,
+                                                       const VisibilityOptions& options);
+
+// Every vertex of `mesh` baked against `caster` and compressed: the stage's visibility.bin content, in memory
+// (tests, benchmarks and tools that need the maps without the stage).
+VisibilityData ComputeVisibility(const TriangleMesh& mesh, const RayCaster& caster, const VisibilityOptions& options);
+
 struct VisibilitySummary {
   size_t vertices = 0;
   double mean_open_fraction = 0;    // mean over vertices of the unblocked share of the hemisphere

@@ -10,6 +10,7 @@ int main(int argc, char** argv) {
                                      inputs.sfm_dir = ctx.HasInput("sfm") ? ctx.Input("sfm") : "";
                                      inputs.mesh_dir = ctx.HasInput("mesh") ? ctx.Input("mesh") : "";
                                      inputs.inverse_dir = ctx.Input("inverse");
+                                     inputs.visibility_dir = ctx.HasInput("visibility") ? ctx.Input("visibility") : "";
                                      RunRelight(options, inputs, ctx.output_dir);
                                    });
 }
