@@ -227,7 +227,7 @@ double ExportAlbedoScale(const std::vector<Eigen::Vector3f>& albedo) {
 }
 
 GltfModelSummary WriteModelGlb(const std::string& path, const TriangleMesh& mesh, const ReflectanceModel& model,
-                               double albedo_scale) {
+                               double albedo_scale, const std::vector<RenderCamera>& cameras) {
   RELIGHT_CHECK(!mesh.empty() && !model.materials.empty() && albedo_scale > 0);
   mesh.Check(path);
   tinygltf::Model g;
@@ -275,6 +275,27 @@ GltfModelSummary WriteModelGlb(const std::string& path, const TriangleMesh& mesh
   tinygltf::Scene scene;
   scene.name = "relight";
   scene.nodes = {0};
+  Eigen::Vector3d center;
+  double radius = 1;
+  MeshBoundingSphere(mesh, &center, &radius);
+  for (const RenderCamera& view : cameras) {
+    tinygltf::Camera cam;
+    cam.name = view.name;
+    cam.type = "perspective";
+    cam.perspective.yfov = 2 * std::atan(0.5 * view.camera.height / view.camera.FocalY());
+    cam.perspective.aspectRatio = double(view.camera.width) / view.camera.height;
+    cam.perspective.znear = 0.01 * radius;
+    g.cameras.push_back(cam);
+    tinygltf::Node n;
+    n.name = view.name;
+    n.camera = int(g.cameras.size()) - 1;
+    const Eigen::Matrix4d m = GltfWorldFromCamera(view.pose);
+    for (int col = 0; col < 4; ++col)
+      for (int row = 0; row < 4; ++row) n.matrix.push_back(m(row, col));  // glTF matrices are column-major
+    scene.nodes.push_back(int(g.nodes.size()));
+    g.nodes.push_back(n);
+  }
+  summary.cameras = int(cameras.size());
   g.scenes.push_back(scene);
   g.defaultScene = 0;
   g.buffers[0].data.resize((g.buffers[0].data.size() + 3) / 4 * 4, 0);
@@ -332,7 +353,11 @@ ExportRecord WriteExport(const std::string& output_dir, const TriangleMesh& mesh
   record.model = "export/model.glb";
   record.scene = "export/scene.json";
   record.albedo_scale = ExportAlbedoScale(VertexAlbedo(mesh, model));
-  const GltfModelSummary s = WriteModelGlb(JoinPath(output_dir, record.model), mesh, model, record.albedo_scale);
+  std::vector<RenderCamera> cameras;
+  for (const RecoveredPhoto& photo : photos)
+    if (photo.camera) cameras.push_back(*photo.camera);
+  const GltfModelSummary s =
+      WriteModelGlb(JoinPath(output_dir, record.model), mesh, model, record.albedo_scale, cameras);
   record.vertices = s.vertices;
   record.triangles = s.triangles;
   record.primitives = s.primitives;

@@ -65,12 +65,17 @@ struct GltfModelSummary {
   int primitives = 0;                       // materials that dominate at least one triangle
   std::vector<int> triangles_per_material;  // one entry per material of the model
   std::vector<double> roughness;            // roughnessFactor per material
+  int cameras = 0;                          // camera nodes
 };
 
 // Writes the mesh (positions, normals, faces, weights w0 ..., optional albedo_r/g/b) as glTF 2.0 binary to
-// `path`, atomically, with the conventions above; COLOR_0 = clamp(albedo / albedo_scale, 0, 1).
+// `path`, atomically, with the conventions above; COLOR_0 = clamp(albedo / albedo_scale, 0, 1). Each of
+// `cameras` becomes a node named after it with a perspective camera: the pose GltfWorldFromCamera (a matrix),
+// yfov from the focal length in y, aspectRatio width / height, znear 1 % of the mesh's bounding radius.
+// glTF has no principal point offset, unequal focal lengths or lens distortion: those of a COLMAP camera
+// are left out (scene.json keeps the full camera).
 GltfModelSummary WriteModelGlb(const std::string& path, const TriangleMesh& mesh, const ReflectanceModel& model,
-                               double albedo_scale = 1);
+                               double albedo_scale = 1, const std::vector<RenderCamera>& cameras = {});
 
 // A photo's recovered light and camera, as the relight stage uses them.
 struct RecoveredPhoto {

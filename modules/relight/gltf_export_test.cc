@@ -210,5 +210,35 @@ TEST(GltfExport, CameraPoseInGltfFrame) {
   EXPECT_NEAR(r.determinant(), 1, 1e-12);
 }
 
+TEST(GltfExport, CamerasAreNodesWithTheirPoseAndFieldOfView) {
+  const gltf_testing::TestModel t = gltf_testing::MakeTestModel();
+  testing::TempDir dir;
+  std::vector<RenderCamera> cameras = {
+      OrbitCamera("photo_a.jpg", Eigen::Vector3d(0.1, -0.3, 0.6), 0.5, 35, 20, 64, 40, 0.8),
+      OrbitCamera("photo_b.jpg", Eigen::Vector3d(0.1, -0.3, 0.6), 0.5, 200, 50, 80, 60, 0.8)};
+  cameras[1].camera.height = 60;  // not square: aspect 80 / 60
+  const GltfModelSummary s = WriteModelGlb(dir / "model.glb", t.mesh, t.reflectance, 1.0, cameras);
+  EXPECT_EQ(s.cameras, 2);
+  const tinygltf::Model g = Load(dir / "model.glb");
+  ASSERT_EQ(g.cameras.size(), 2u);
+  ASSERT_EQ(g.nodes.size(), 3u);
+  ASSERT_EQ(g.scenes.at(0).nodes.size(), 3u);
+  for (int k = 0; k < 2; ++k) {
+    const tinygltf::Node& n = g.nodes[k + 1];
+    EXPECT_EQ(n.name, cameras[k].name);
+    ASSERT_EQ(n.camera, k);
+    ASSERT_EQ(n.matrix.size(), 16u);
+    const Eigen::Matrix4d expected = GltfWorldFromCamera(cameras[k].pose);
+    for (int col = 0; col < 4; ++col)
+      for (int row = 0; row < 4; ++row) EXPECT_NEAR(n.matrix[col * 4 + row], expected(row, col), 1e-12);
+    const tinygltf::Camera& c = g.cameras[k];
+    EXPECT_EQ(c.type, "perspective");
+    // The vertical field of view of a pinhole of focal fy over the image height.
+    EXPECT_NEAR(c.perspective.yfov, 2 * std::atan(0.5 * cameras[k].camera.height / cameras[k].camera.FocalY()), 1e-12);
+    EXPECT_NEAR(c.perspective.aspectRatio, double(cameras[k].camera.width) / cameras[k].camera.height, 1e-12);
+    EXPECT_GT(c.perspective.znear, 0);
+  }
+}
+
 }  // namespace
 }  // namespace relight

@@ -13,7 +13,7 @@
 namespace relight {
 
 inline const StageInfo kRelightStage{
-    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 5};
+    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 6};
 
 struct RelightOptions {
   // What to render.
