@@ -8,12 +8,13 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
+#include "image/color.h"
 #include "sphere/octahedral.h"
 
 namespace relight {
 namespace {
 double Lum(const Image& img, int i, int j) {
-  return 0.2126 * img.at(i, j, 0) + 0.7152 * img.at(i, j, 1) + 0.0722 * img.at(i, j, 2);
+  return Luminance(img.at(i, j, 0), img.at(i, j, 1), img.at(i, j, 2));
 }
 double Percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;

@@ -17,6 +17,7 @@
 #include "core/path_text.h"
 #include "core/progress.h"
 #include "core/timer.h"
+#include "image/color.h"
 
 namespace relight {
 namespace fs = std::filesystem;
@@ -103,7 +104,7 @@ std::vector<float> Thumbnail(const Image& image) {
   std::vector<float> t(32 * 32);
   for (int i = 0; i < 32 * 32; ++i) {
     const float* p = &small.pixels[size_t(i) * small.channels];
-    t[i] = small.channels >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
+    t[i] = small.channels >= 3 ? static_cast<float>(Luminance(p)) : p[0];
   }
   double mean = 0;
   for (float v : t) mean += v;

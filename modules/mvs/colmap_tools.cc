@@ -37,11 +37,6 @@ std::string ColmapToolRun::Describe() const {
   return s.str();
 }
 
-std::string ColmapExecutable() {
-  const char* env = std::getenv("RELIGHT_COLMAP");
-  return env != nullptr && *env != '\0' ? env : "colmap";
-}
-
 ColmapToolRun RunColmapTool(const std::vector<std::string>& args) {
   std::vector<std::string> argv_strings = {ColmapExecutable()};
   argv_strings.insert(argv_strings.end(), args.begin(), args.end());

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "core/external_tools.h"  // ColmapExecutable
 #include "mvs/mvs_options.h"
 
 namespace relight {
@@ -31,8 +32,6 @@ struct ColmapToolRun {
   std::string Describe() const;
 };
 
-// The COLMAP executable: $RELIGHT_COLMAP if set, else `colmap` from PATH.
-std::string ColmapExecutable();
 // Runs `colmap <args...>`; output lines go to the log at debug level. Throws UserError when it cannot start.
 ColmapToolRun RunColmapTool(const std::vector<std::string>& args);
 // True when `colmap help` reports a CUDA build; `banner` receives its version line.

@@ -13,14 +13,13 @@
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/timer.h"
+#include "image/color.h"
 #include "ingest/ingest.h"
 
 namespace relight {
 namespace fs = std::filesystem;
 
-double SrgbToLinear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
-double LinearToSrgb(double l) { return l <= 0.0031308 ? 12.92 * l : 1.055 * std::pow(l, 1.0 / 2.4) - 0.055; }
 
 std::optional<double> ExifExposure(std::optional<double> t, std::optional<double> n, std::optional<double> iso) {
   if (!t || !n || *t <= 0 || *n <= 0) return std::nullopt;
@@ -46,7 +45,7 @@ LinearImage Linearize(const Image& encoded, bool is_float, const LinearizeOption
         } else {
           if (v >= o.saturation_level) is_clipped = true;
           if (v <= o.black_level) is_black = true;
-          l = o.transfer == "srgb" ? SrgbToLinear(v) : o.transfer == "gamma" ? std::pow(std::max(0.0f, v), o.gamma) : v;
+          l = o.transfer == "srgb" ? SrgbDecode(v) : o.transfer == "gamma" ? std::pow(std::max(0.0f, v), o.gamma) : v;
         }
         out.radiance.at(x, y, c) = static_cast<float>(l);
       }
@@ -60,7 +59,7 @@ LinearImage Linearize(const Image& encoded, bool is_float, const LinearizeOption
   out.clipped_fraction = clipped / n;
   if (!is_float) {
     const double v = o.saturation_level;
-    out.overexposed_linear = o.transfer == "srgb" ? SrgbToLinear(v) : o.transfer == "gamma" ? std::pow(v, o.gamma) : v;
+    out.overexposed_linear = o.transfer == "srgb" ? SrgbDecode(v) : o.transfer == "gamma" ? std::pow(v, o.gamma) : v;
   }
   out.black_fraction = black / n;
   // Confidence: 0 on and near clipped pixels (a square dilation of radius clip_dilation_px).

@@ -15,10 +15,6 @@
 
 namespace relight {
 
-// sRGB electro-optical transfer: encoded [0,1] -> linear.
-double SrgbToLinear(double encoded);
-// Inverse: linear -> encoded [0,1] (no clamping beyond the curve).
-double LinearToSrgb(double linear);
 
 // Linear radiance and confidence of one encoded image.
 struct LinearImage {

@@ -8,6 +8,7 @@
 
 #include "core/fs.h"
 #include "core/json.h"
+#include "image/color.h"
 #include "core/log.h"
 #include "ingest/ingest.h"
 #include "testing/testing.h"
@@ -19,12 +20,12 @@ namespace fs = std::filesystem;
 TEST(LinearizeTest, SrgbRoundTrip) {
   for (int i = 0; i <= 1000; ++i) {
     const double e = i / 1000.0;
-    EXPECT_NEAR(LinearToSrgb(SrgbToLinear(e)), e, 1e-6);
+    EXPECT_NEAR(SrgbEncode(SrgbDecode(e)), e, 1e-6);
   }
   // Reference points of the sRGB curve (IEC 61966-2-1).
-  EXPECT_NEAR(SrgbToLinear(0.5), 0.21404114, 1e-7);
-  EXPECT_NEAR(SrgbToLinear(0.04045), 0.04045 / 12.92, 1e-12);
-  EXPECT_DOUBLE_EQ(SrgbToLinear(1.0), 1.0);
+  EXPECT_NEAR(SrgbDecode(0.5), 0.21404114, 1e-7);
+  EXPECT_NEAR(SrgbDecode(0.04045), 0.04045 / 12.92, 1e-12);
+  EXPECT_DOUBLE_EQ(SrgbDecode(1.0), 1.0);
 }
 
 TEST(LinearizeTest, ClippedAndBlackPixelsGetZeroConfidence) {
@@ -39,9 +40,9 @@ TEST(LinearizeTest, ClippedAndBlackPixelsGetZeroConfidence) {
   EXPECT_EQ(lin.confidence.at(4, 4), 1.0f);
   EXPECT_EQ(lin.confidence.at(7, 7), 0.0f);
   EXPECT_NEAR(lin.clipped_fraction, 0.01, 1e-12);
-  EXPECT_NEAR(lin.radiance.at(5, 5, 0), SrgbToLinear(0.5), 1e-6);
+  EXPECT_NEAR(lin.radiance.at(5, 5, 0), SrgbDecode(0.5), 1e-6);
   // The over-exposure level in linear units tells which channel of a distrusted pixel clipped.
-  EXPECT_NEAR(lin.overexposed_linear, SrgbToLinear(o.saturation_level), 1e-12);
+  EXPECT_NEAR(lin.overexposed_linear, SrgbDecode(o.saturation_level), 1e-12);
   EXPECT_GE(lin.radiance.at(2, 2, 1), lin.overexposed_linear);
   EXPECT_LT(lin.radiance.at(2, 2, 0), lin.overexposed_linear);
   // Kept black pixels (linear raw data): their own confidence, no dilation; clipped pixels still win.
@@ -85,7 +86,7 @@ TEST(LinearizeTest, StageWritesOutputsNormalizesExposureAndResumes) {
   for (int k = 0; k < 3; ++k) {
     const double t = k == 1 ? 2.0 / 100 : 1.0 / 100;
     Image enc = linear;
-    for (float& v : enc.pixels) v = static_cast<float>(LinearToSrgb(v * t * 100));
+    for (float& v : enc.pixels) v = static_cast<float>(SrgbEncode(v * t * 100));
     // Distinct content per photo so ingest keeps all three (not near-duplicates).
     for (int x = 0; x < 24; ++x) enc.at(x, 3 * k, 0) = 0.9f;
     ImageMetadata exif;
@@ -117,7 +118,7 @@ TEST(LinearizeTest, StageWritesOutputsNormalizesExposureAndResumes) {
   // The over-exposure level follows the photo's exposure scale (p1 was scaled by 1/2).
   const Json stats = ReadJsonFile(dir / "out/stats/p1.json");
   EXPECT_NEAR(stats["exposure_scale"].get<double>(), 0.5, 1e-12);
-  EXPECT_NEAR(stats["overexposed_linear"].get<double>(), 0.5 * SrgbToLinear(LinearizeOptions{}.saturation_level),
+  EXPECT_NEAR(stats["overexposed_linear"].get<double>(), 0.5 * SrgbDecode(LinearizeOptions{}.saturation_level),
               1e-12);
 
   // A rerun (as after a killed run) reuses every finished photo.

@@ -21,8 +21,7 @@ double PercentileExposure(const Image& image, const Image* mask, double percenti
   for (int y = 0; y < image.height; ++y)
     for (int x = 0; x < image.width; ++x) {
       if (use_mask && mask->at(x, y) <= 0.5f) continue;
-      const float r = image.at(x, y, 0), g = image.at(x, y, 1), b = image.at(x, y, 2);
-      const float l = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+      const float l = static_cast<float>(Luminance(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2)));
       if (std::isfinite(l)) lum.push_back(l);
     }
   if (lum.empty()) return 1.0;
@@ -39,12 +38,6 @@ double PercentileExposure(const Image& image, const Image* mask, double percenti
     return peak > 0 ? 1.0 / peak : 1.0;
   }
   return 1.0 / value;
-}
-
-double SrgbEncode(double v) {
-  if (!(v > 0)) return 0.0;
-  if (v >= 1) return 1.0;
-  return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
 }
 
 Image ToneMapSrgb(const Image& image, double exposure) {

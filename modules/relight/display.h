@@ -10,6 +10,7 @@
 
 #include <string>
 
+#include "image/color.h"
 #include "image/image.h"
 
 namespace relight {
@@ -18,8 +19,6 @@ namespace relight {
 // `mask` is null or empty) to 1; 1 when that luminance is not positive.
 double PercentileExposure(const Image& linear_rgb, const Image* mask, double percentile);
 
-// sRGB transfer curve (IEC 61966-2-1) of a linear value in [0, 1].
-double SrgbEncode(double linear);
 
 // srgb(clamp(exposure * linear, 0, 1)) per RGB channel; a 3-channel image ready for an 8-bit PNG.
 Image ToneMapSrgb(const Image& linear_rgb, double exposure);

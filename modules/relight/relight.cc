@@ -19,6 +19,7 @@
 #include "core/timer.h"
 #include "geometry/mesh_io.h"
 #include "geometry/reconstruction.h"
+#include "image/color.h"
 #include "image/image.h"
 #include "relight/display.h"
 #include "relight/gltf_export.h"
@@ -268,7 +269,7 @@ Eigen::Vector3f MaterialColor(int m) {
                                    {0.800f, 0.475f, 0.655f}, {0.600f, 0.600f, 0.600f}};
   const float* s = kSrgb[m % 8];
   Eigen::Vector3f linear;
-  for (int c = 0; c < 3; ++c) linear[c] = s[c] <= 0.04045f ? s[c] / 12.92f : std::pow((s[c] + 0.055f) / 1.055f, 2.4f);
+  for (int c = 0; c < 3; ++c) linear[c] = static_cast<float>(SrgbDecode(s[c]));
   if (m >= 8) linear *= 0.5f;  // a second, darker round for more than 8 materials
   return linear;
 }

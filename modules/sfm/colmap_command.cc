@@ -47,11 +47,6 @@ std::string ColmapCommand::ToString() const {
   return s;
 }
 
-std::string ColmapExecutable() {
-  const char* env = std::getenv("RELIGHT_COLMAP");
-  return env != nullptr && *env != '\0' ? env : "colmap";
-}
-
 void CheckColmapAvailable() {
   const std::string exe = ColmapExecutable();
   bool found = exe.find('/') != std::string::npos && access(exe.c_str(), X_OK) == 0;

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "core/external_tools.h"  // ColmapExecutable
+
 namespace relight {
 
 // Outcome of one COLMAP command.
@@ -41,8 +43,6 @@ struct ColmapCommand {
   std::string ToString() const;
 };
 
-// The COLMAP executable: $RELIGHT_COLMAP if set, else `colmap` from PATH.
-std::string ColmapExecutable();
 // Throws UserError saying how to install COLMAP when it cannot be run.
 void CheckColmapAvailable();
 

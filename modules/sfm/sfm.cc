@@ -25,6 +25,7 @@
 #include "core/path_text.h"
 #include "core/progress.h"
 #include "core/timer.h"
+#include "image/color.h"
 #include "image/image.h"
 #include "sfm/chroma_features.h"
 #include "sfm/colmap_command.h"
@@ -58,11 +59,6 @@ double Median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-float SrgbEncode(float linear) {
-  linear = std::clamp(linear, 0.0f, 1.0f);
-  return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
-}
-
 // Tone-maps a linear (EXR/HDR) photo to an 8-bit sRGB PNG for SIFT: the 99th
 // percentile of luminance maps to white.
 void ToneMapForColmap(const std::string& in_path, const std::string& out_path) {
@@ -72,7 +68,7 @@ void ToneMapForColmap(const std::string& in_path, const std::string& out_path) {
   const size_t step = std::max<size_t>(1, n / 100000);
   for (size_t p = 0; p < n; p += step) {
     const float* px = &image.pixels[p * image.channels];
-    luminance.push_back(image.channels >= 3 ? 0.2126f * px[0] + 0.7152f * px[1] + 0.0722f * px[2] : px[0]);
+    luminance.push_back(image.channels >= 3 ? static_cast<float>(Luminance(px)) : px[0]);
   }
   const size_t k = std::min(luminance.size() - 1, luminance.size() * 99 / 100);
   std::nth_element(luminance.begin(), luminance.begin() + k, luminance.end());

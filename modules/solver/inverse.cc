@@ -13,6 +13,7 @@
 #include "core/progress.h"
 #include "core/timer.h"
 #include "geometry/mesh_io.h"
+#include "image/color.h"
 #include "image/image.h"
 #include "solver/lighting.h"
 #include "solver/lobe_spec.h"
@@ -779,7 +780,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
     int best = 0;
     double best_lum = -1;
     for (int k = 0; k < n_out * n_out; ++k) {
-      const double lum = 0.2126 * oct.pixels[k * 3] + 0.7152 * oct.pixels[k * 3 + 1] + 0.0722 * oct.pixels[k * 3 + 2];
+      const double lum = Luminance(&oct.pixels[k * 3]);
       if (lum > best_lum) {
         best_lum = lum;
         best = k;

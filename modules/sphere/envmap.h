@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "image/color.h"  // Luminance, used with the maps
 #include "image/image.h"
 
 namespace relight {
@@ -110,9 +111,6 @@ class EnvMap {
   std::vector<double> oct_solid_angles_;  // octahedral layout: per texel
   std::shared_ptr<const Sampler> sampler_;
 };
-
-// Linear-sRGB (Rec. 709) luminance of an RGB triple.
-inline double Luminance(const Eigen::Vector3d& rgb) { return 0.2126 * rgb.x() + 0.7152 * rgb.y() + 0.0722 * rgb.z(); }
 
 template <typename Weight>
 Eigen::Vector3d EnvMap::Integrate(Weight weight, int supersampling) const {

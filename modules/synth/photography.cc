@@ -9,19 +9,9 @@
 namespace relight {
 namespace {
 
-double Lum(const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
+double Lum(const float* p) { return Luminance(p); }
 
 }  // namespace
-
-double SrgbEncode(double x) {
-  if (x <= 0.0031308) return 12.92 * std::max(0.0, x);
-  return 1.055 * std::pow(std::min(x, 1.0), 1.0 / 2.4) - 0.055;
-}
-
-double SrgbDecode(double y) {
-  if (y <= 0.04045) return std::max(0.0, y) / 12.92;
-  return std::pow((std::min(y, 1.0) + 0.055) / 1.055, 2.4);
-}
 
 PhotoSettings ChoosePhotoSettings(const Image& radiance, const PhotoStyle& style, Pcg32* rng) {
   RELIGHT_CHECK_EQ(radiance.channels, 3);

@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 
+#include "image/color.h"
 #include "image/image.h"
 #include "render/rng.h"
 
@@ -50,8 +51,5 @@ Image SensorImage(const Image& radiance, const PhotoSettings& settings);
 Image DevelopPhoto(const Image& radiance, const PhotoSettings& settings, Pcg32* rng,
                    double* clipped_fraction = nullptr);
 
-// sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1], and its inverse.
-double SrgbEncode(double linear);
-double SrgbDecode(double encoded);
 
 }  // namespace relight
