@@ -7,7 +7,7 @@
 // nothing, that `pipeline render` renders the photos' cameras under a new map without rerunning a stage,
 // and that a changed solver option reuses everything before `inverse`.
 //
-// Measured on 2026-11-22 over eight runs (docs/RESULTS.md, "The whole chain"):
+// Measured on 2026-11-22 over eight runs (docs/RESULTS.md@15cf301, "The whole chain"):
 // rotation 0.10-0.14 deg, centre 0.27-0.45% of the scene radius, mesh Chamfer
 // 0.99-1.07% of the object's diagonal, sun direction 1.2-2.1 deg, relighting
 // 17.7-18.3 dB and re-rendering 18.7-19.2 dB (scale-invariant HDR-PSNR on the
@@ -15,7 +15,7 @@
 // direction 10 deg; PSNR about 3 dB under the measured values (Monte Carlo
 // noise of relight and synthesize, COLMAP's non-deterministic matching and
 // fusion). A mesh stage that crops part of the object fails all of them at
-// once (Chamfer 4-9%, sun 97-125 deg off, 12-13 dB: RESULTS, "Why two CI runs
+// once (Chamfer 4-9%, sun 97-125 deg off, 12-13 dB: RESULTS@15cf301, "Why two CI runs
 // failed").
 //
 // Set RELIGHT_CHAIN_WORKSPACE to keep the workspace (and reuse it across runs).

@@ -405,6 +405,9 @@ void OptionTable::ApplyYaml(const YAML::Node& mapping, const std::string& file, 
 void OptionTable::ApplyEntry(const std::string& name, const std::string& where, const YAML::Node& value,
                              const std::string& file, const std::string& base_dir) {
   OptionField* field = Find(name);
+  if (field == nullptr && retired_.count(name)) {
+    RELIGHT_USER_ERROR() << where << ": option '" << section_ << "." << name << "' was removed: " << retired_.at(name);
+  }
   if (field == nullptr) {
     std::vector<std::string> names;
     for (const auto& f : fields_) names.push_back(f.name());
@@ -417,6 +420,9 @@ void OptionTable::ApplyEntry(const std::string& name, const std::string& where, 
 
 void OptionTable::ApplyText(const std::string& name, const std::string& value, const std::string& where) {
   OptionField* field = Find(name);
+  if (field == nullptr && retired_.count(name)) {
+    RELIGHT_USER_ERROR() << where << ": option '" << section_ << "." << name << "' was removed: " << retired_.at(name);
+  }
   if (field == nullptr) {
     std::vector<std::string> names;
     for (const auto& f : fields_) names.push_back(f.name());

@@ -20,6 +20,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <variant>
@@ -45,8 +46,8 @@ enum class PathRole {
 // One option: a name, a typed pointer into the options struct, a doc line and constraints.
 class OptionField {
  public:
-  using Target = std::variant<bool*, int*, double*, std::string*, std::vector<double>*,
-                              std::vector<int>*, std::vector<std::string>*>;
+  using Target = std::variant<bool*, int*, double*, std::string*, std::vector<double>*, std::vector<int>*,
+                              std::vector<std::string>*>;
 
   OptionField(std::string name, Target target, std::string doc);
 
@@ -128,6 +129,10 @@ class OptionTable {
     return fields_.back();
   }
 
+  // A key that no longer exists: a config that sets it fails with `what_to_do` (which names the key that
+  // replaced it, or says to delete it) instead of the generic unknown-option message.
+  void Retired(const std::string& name, const std::string& what_to_do) { retired_[name] = what_to_do; }
+
   const std::string& section() const { return section_; }
   std::vector<OptionField>& fields() { return fields_; }
   const std::vector<OptionField>& fields() const { return fields_; }
@@ -163,6 +168,7 @@ class OptionTable {
   std::string HelpText() const;
 
  private:
+  std::map<std::string, std::string> retired_;  // name -> what to do
   std::string section_;
   // A deque would keep references stable; fields are only added in Declare(), before use.
   std::vector<OptionField> fields_;

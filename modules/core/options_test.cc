@@ -29,6 +29,7 @@ struct DemoOptions {
     t->Add("rgb", &rgb, "Colour.").Size(3);
     t->Add("maps", &maps, "Maps.").InputFile();
     t->Add("threads", &threads, "Threads.").NotInKey();
+    t->Retired("samples", "use demo.count");
   }
 };
 
@@ -146,6 +147,15 @@ TEST(OptionsTest, ErrorsNameFileLineAndAllowedValues) {
   expect_error("count: many", {"cfg.yaml:1", "expects an integer"});
   expect_error("rgb: [1, 2]", {"needs exactly 3 entries"});
   expect_error("count: [1, 2]", {"got a list"});
+  expect_error("count: 2\nsamples: 8", {"cfg.yaml:2", "option 'demo.samples' was removed: use demo.count"});
+  try {
+    t.ApplyText("samples", "8", "--set");
+    FAIL() << "no error for a retired key";
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("--set: option 'demo.samples' was removed: use demo.count"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(OptionsTest, TextOverrides) {

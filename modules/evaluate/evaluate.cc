@@ -1,5 +1,4 @@
 #include "evaluate/evaluate.h"
-#include "solver/inverse.h"
 
 #include <algorithm>
 #include <cmath>
@@ -26,8 +25,10 @@
 #include "relight/display.h"
 #include "relight/ground_truth_frame.h"
 #include "relight/relight.h"
+#include "relight/transport_render.h"
 #include "render/render_view.h"
 #include "render/rng.h"
+#include "solver/inverse.h"
 #include "sphere/envmap.h"
 
 namespace relight {
@@ -666,7 +667,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
                    {"samples", d.samples},
                    {"estimate_samples_near_object", d.estimate_samples_near_object},
                    {"accuracy_region", context.num_faces() > 0 ? "object bounding box + 10%, vs object and occluders"
-                                                                : "whole estimate, vs object"}};
+                                                               : "whole estimate, vs object"}};
     } else {
       m["not_available"]["mesh"] = !has_gt || !IsFile(truth_path) ? "no ground-truth mesh"
                                    : mesh.empty()                 ? "the mesh stage did not run"
@@ -692,80 +693,123 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
     }
     OrderedJson list = OrderedJson::array();
     std::vector<double> psnr;
+    std::set<std::string> scored;  // photos with a leave-one-out score
     if (reason.empty()) {
       InverseOptions inverse_options;
       if (!ReadResolvedOptions(in.inverse_dir, "inverse", &inverse_options))
         RLOG_WARN("no {}/config.yaml: leave-one-out uses the inverse stage's default options", in.inverse_dir);
       InverseProblem problem = LoadInverseProblem(in.mesh_dir, in.visibility_dir, in.observe_dir);
-      // Render the held-out photo as the relight stage renders re-renderings.
+      // The model's occluders, prepared as the relight stage renders them.
+      const RecoveredModel full = LoadRecoveredModel(in.inverse_dir, in.mesh_dir);
+      // Render the held-out photo as the relight stage renders its re-renderings (same renderer and samples).
       RelightOptions relight_options;
       ReadResolvedOptions(in.relight_dir, "relight", &relight_options);
-      const bool zero_unseen = relight_options.zero_unseen_light;
+      const bool use_transport = relight_options.renderer == "transport";
       std::map<std::string, const RenderRecord*> rerender;
       for (const auto& r : renders)
         if (r.kind == "rerender") rerender[r.view] = &r;
-      const std::vector<uint32_t> chosen = SpreadPhotos(problem.observations.num_photos, o.loo_max_photos);
-      TriangleMesh occ = occluders;
-      occ.properties.clear();
-      occ.colors.clear();
-      if (!occ.empty() && occ.normals.size() != occ.num_vertices()) occ.ComputeVertexNormals();
-      RLOG_INFO("leave-one-photo-out: {} photo(s), one reflectance solve each", chosen.size());
-      for (uint32_t i : chosen) {
-        const ObservedPhoto& photo = problem.photos[i];
-        auto it = rerender.find(photo.name);
-        OrderedJson e{{"name", photo.name}};
-        if (it == rerender.end()) {
-          e["psnr_db"] = nullptr;
-          e["reason"] = "the relight stage did not re-render this photo";
+      std::vector<uint32_t> chosen;
+      for (uint32_t i : SpreadPhotos(problem.observations.num_photos, o.loo_max_photos)) {
+        if (rerender.count(problem.photos[i].name)) {
+          chosen.push_back(i);
+        } else {
+          list.push_back({{"name", problem.photos[i].name},
+                          {"psnr_db", nullptr},
+                          {"reason", "the relight stage did not re-render this photo"}});
+        }
+      }
+      // Groups left out together (evaluate/leave_one_out.h): one solve from scratch per group, then a short
+      // fold per photo started from it; a group of one is a fold from scratch.
+      const std::vector<std::vector<uint32_t>> groups = LeaveOutGroups(chosen, problem.observations.num_photos);
+      const int fold_iterations = o.loo_max_iterations > 0 ? o.loo_max_iterations : inverse_options.max_iterations;
+      // Solves from scratch run only the start the full solve kept (inverse.init_gloss): one discrete choice
+      // made with the held-out photos, against the cost of racing every start again in every group.
+      InverseOptions group_options = inverse_options;
+      if (const std::string path = JoinPath(in.inverse_dir, "solve_summary.json"); IsFile(path)) {
+        for (const auto& st : ReadJsonFile(path).value("starts", Json::array()))
+          if (st.value("chosen", false) && inverse_options.init_gloss.size() > 1)
+            group_options.init_gloss = {st.value("init_gloss", inverse_options.init_gloss.front())};
+      }
+      RLOG_INFO(
+          "leave-one-photo-out: {} photo(s) in {} group(s) left out together; a solve from scratch per group, "
+          "then {} iterations per photo",
+          chosen.size(), groups.size(), fold_iterations);
+      Progress progress("leave-one-photo-out", static_cast<int64_t>(chosen.size() + groups.size()));
+      for (const std::vector<uint32_t>& group : groups) {
+        Timer group_timer;
+        ReflectanceState group_start;
+        if (group.size() > 1) group_start = SolveWithout(&problem, group_options, group);
+        const double group_seconds = group_timer.Seconds();
+        progress.Advance();
+        for (uint32_t i : group) {
+          const ObservedPhoto& photo = problem.photos[i];
+          const RenderRecord& r = *rerender.at(photo.name);
+          OrderedJson e{{"name", photo.name}};
+          const LeaveOneOutFit fit = group.size() > 1
+                                         ? LeaveOneOut(&problem, inverse_options, i, fold_iterations, &group_start)
+                                         : LeaveOneOut(&problem, group_options, i, 0);
+          TriangleMesh weighted = problem.mesh;
+          const int nm = fit.reflectance.num_materials;
+          for (int mm = 0; mm < nm; ++mm) {
+            std::vector<float>& w = weighted.Property("w" + std::to_string(mm));
+            for (size_t v = 0; v < weighted.num_vertices(); ++v) w[v] = fit.reflectance.weights[v * nm + mm];
+          }
+          const Scene scene(
+              ModelSurfaces(weighted, fit.reflectance.Model(), full.occluders, relight_options.occluder_albedo),
+              "leave-one-out model");
+          const Image map = relight_options.zero_unseen_light
+                                ? ZeroTexels(fit.lighting_oct, UnseenOctTexels(scene, fit.lighting_oct.width))
+                                : fit.lighting_oct;
+          const Lighting lighting = Lighting::FromEnvMap(EnvMap::FromOctahedral(map));
+          RenderedView view;
+          if (use_transport) {
+            TransportRenderer renderer(scene, problem.visibility, fit.lighting_oct.width);
+            TransportRenderOptions to;
+            to.pixel_samples_per_axis = relight_options.pixel_samples_per_axis;
+            to.background = false;
+            view = renderer.Render(lighting, r.camera.camera, r.camera.pose, to);
+          } else {
+            RenderOptions ro;
+            ro.pixel_samples_per_axis = relight_options.pixel_samples_per_axis;
+            ro.light_samples = std::max(relight_options.light_samples, relight_options.scored_samples);
+            ro.brdf_samples = std::max(relight_options.brdf_samples, relight_options.scored_samples);
+            ro.background = false;
+            ro.seed = MixSeed(1, 0x100 + i);
+            view = RenderView(scene, lighting, r.camera.camera, r.camera.pose, ro, i);
+          }
+          const PhotoReference ref =
+              LoadPhotoReference(in.linearize_dir, r.name, view.radiance.width, view.radiance.height);
+          const Image mask = ComparisonMask(
+              ObservedPixelMask(*caster, ObservedVertices(observations, i), r.camera.camera, r.camera.pose), ref, o);
+          progress.Advance();
+          if (CountMask(mask) == 0) {
+            e["psnr_db"] = nullptr;
+            e["reason"] = "no observed, unclipped pixel";
+            list.push_back(e);
+            continue;
+          }
+          const ImageComparison c = CompareScaleInvariant(ref.linear, view.radiance, mask, compare, photo.name);
+          e.update(ComparisonJson(c));
+          e["seconds"] = fit.seconds + view.seconds;
+          e["group_solve_seconds"] =
+              group.size() > 1 ? OrderedJson(group_seconds) : OrderedJson();  // shared by the group
+          e["reflectance_iterations"] = fit.reflectance_summary.iterations.size();
+          e["observation_rmse"] = fit.photo_rmse;
           list.push_back(e);
-          continue;
+          psnr.push_back(c.psnr_db);
+          scored.insert(photo.name);
+          const std::string base = "figures/loo/" + r.name;
+          const double exposure = PercentileExposure(ref.linear, &mask, 99);
+          WritePng(JoinPath(output_dir, base + "_render.png"),
+                   ToneMapSrgb(ScaleChannels(view.radiance, c.scale), exposure));
+          WritePng(JoinPath(output_dir, base + "_error.png"),
+                   HeatMap(RelativeErrorImage(ref.linear, view.radiance, c.scale, c.peak), o.heatmap_max, &mask));
+          fig["loo"].push_back({{"name", photo.name},
+                                {"render", base + "_render.png"},
+                                {"error", base + "_error.png"},
+                                {"psnr_db", c.psnr_db}});
+          RLOG_INFO("leave-one-out {}: PSNR {:.2f} dB ({:.1f} s)", photo.name, c.psnr_db, fit.seconds + view.seconds);
         }
-        const RenderRecord& r = *it->second;
-        const LeaveOneOutFit fit = LeaveOneOut(&problem, inverse_options, i, o.loo_max_iterations);
-        TriangleMesh weighted = problem.mesh;
-        const int nm = fit.reflectance.num_materials;
-        for (int mm = 0; mm < nm; ++mm) {
-          std::vector<float>& w = weighted.Property("w" + std::to_string(mm));
-          for (size_t v = 0; v < weighted.num_vertices(); ++v) w[v] = fit.reflectance.weights[v * nm + mm];
-        }
-        const Scene scene(ModelSurfaces(weighted, fit.reflectance.Model(), occ, relight_options.occluder_albedo),
-                          "leave-one-out model");
-        RenderOptions ro;
-        ro.light_samples = o.loo_light_samples;
-        ro.brdf_samples = o.loo_brdf_samples;
-        ro.background = false;
-        ro.seed = MixSeed(1, 0x100 + i);
-        const Image map = zero_unseen ? ZeroTexels(fit.lighting_oct, UnseenOctTexels(scene, fit.lighting_oct.width))
-                                      : fit.lighting_oct;
-        const RenderedView view = RenderView(scene, Lighting::FromEnvMap(EnvMap::FromOctahedral(map)),
-                                             r.camera.camera, r.camera.pose, ro, i);
-        const PhotoReference ref =
-            LoadPhotoReference(in.linearize_dir, r.name, view.radiance.width, view.radiance.height);
-        const Image mask = ComparisonMask(
-            ObservedPixelMask(*caster, ObservedVertices(observations, i), r.camera.camera, r.camera.pose), ref, o);
-        if (CountMask(mask) == 0) {
-          e["psnr_db"] = nullptr;
-          e["reason"] = "no observed, unclipped pixel";
-          list.push_back(e);
-          continue;
-        }
-        const ImageComparison c = CompareScaleInvariant(ref.linear, view.radiance, mask, compare, photo.name);
-        e.update(ComparisonJson(c));
-        e["seconds"] = fit.seconds + view.seconds;
-        e["reflectance_iterations"] = fit.reflectance_summary.iterations.size();
-        list.push_back(e);
-        psnr.push_back(c.psnr_db);
-        const std::string base = "figures/loo/" + r.name;
-        const double exposure = PercentileExposure(ref.linear, &mask, 99);
-        WritePng(JoinPath(output_dir, base + "_render.png"),
-                 ToneMapSrgb(ScaleChannels(view.radiance, c.scale), exposure));
-        WritePng(JoinPath(output_dir, base + "_error.png"),
-                 HeatMap(RelativeErrorImage(ref.linear, view.radiance, c.scale, c.peak), o.heatmap_max, &mask));
-        fig["loo"].push_back({{"name", photo.name},
-                              {"render", base + "_render.png"},
-                              {"error", base + "_error.png"},
-                              {"psnr_db", c.psnr_db}});
-        RLOG_INFO("leave-one-out {}: PSNR {:.2f} dB ({:.1f} s)", photo.name, c.psnr_db, fit.seconds);
       }
       if (psnr.empty()) reason = "no scored photo could be rendered";
     }
@@ -774,6 +818,12 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
       NotAvailable(&m, "loo_psnr_db", reason);
     } else {
       m["loo_psnr_db"] = Mean(psnr);
+      // The re-rendering score of the same photos, so that the two headline numbers compare like with like.
+      std::vector<double> same;
+      for (const auto& p : m["rerender"]["photos"])
+        if (scored.count(p.value("name", "")) && p.contains("psnr_db") && p["psnr_db"].is_number())
+          same.push_back(p["psnr_db"].get<double>());
+      m["leave_one_out"]["rerender_psnr_db"] = same.size() == psnr.size() ? OrderedJson(Mean(same)) : OrderedJson();
     }
   }
 

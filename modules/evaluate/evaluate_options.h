@@ -11,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kEvaluateStage{
-    "evaluate", "Metrics against ground truth (or leave-one-photo-out without it), error heat maps", 3};
+    "evaluate", "Metrics against ground truth (or leave-one-photo-out without it), error heat maps", 4};
 
 struct EvaluateOptions {
   // Image metrics.
@@ -30,9 +30,7 @@ struct EvaluateOptions {
   // Leave-one-photo-out.
   std::string leave_one_out = "auto";  // auto (only without ground-truth light), always or never
   int loo_max_photos = 4;              // photos scored (evenly spread over the collection); 0: all
-  int loo_max_iterations = 0;          // outer iterations of each refit; 0: as the inverse stage
-  int loo_light_samples = 8;           // environment samples per shading point of the held-out renders
-  int loo_brdf_samples = 8;            // BRDF samples per shading point of the held-out renders
+  int loo_max_iterations = 2;          // outer iterations of each fold from its group's reflectance; 0: as inverse
 
   void Declare(OptionTable* t) {
     t->Add("peak_percentile", &peak_percentile,
@@ -57,25 +55,24 @@ struct EvaluateOptions {
     t->Add("mesh_samples", &mesh_samples, "Area-uniform surface samples per mesh for the Chamfer distance.")
         .Range(100, 10000000);
     t->Add("leave_one_out", &leave_one_out,
-           "Leave-one-photo-out scores (one reflectance solve per scored photo): auto (only when the ground truth "
-           "knows no light: no relight references, lighting.json or lights.json), always, or never.")
+           "Leave-one-photo-out scores (a reflectance solve without each scored photo; docs/METRICS.md): auto (only "
+           "when the ground truth knows no light: no relight references, lighting.json or lights.json), always, or "
+           "never.")
         .Choices({"auto", "always", "never"});
     t->Add("loo_max_photos", &loo_max_photos,
-           "Photos scored by leave-one-photo-out, evenly spread over the collection; 0: all.")
+           "Photos scored by leave-one-photo-out, evenly spread over the collection; 0: all. Each costs one short "
+           "reflectance solve: raise it for a score over more of the collection.")
         .Min(0);
     t->Add("loo_max_iterations", &loo_max_iterations,
-           "Outer iterations of each leave-one-out reflectance solve; 0: inverse.max_iterations.")
+           "Outer iterations of each leave-one-out solve started from its group's reflectance (solved without the "
+           "group's photos); 0: inverse.max_iterations. Raise it when the folds' iterations still lower the error.")
         .Min(0);
-    t->Add("loo_light_samples", &loo_light_samples, "Environment samples per shading point of leave-one-out renders.")
-        .Range(0, 1024);
-    t->Add("loo_brdf_samples", &loo_brdf_samples, "BRDF samples per shading point of leave-one-out renders.")
-        .Range(0, 1024);
+    t->Retired("loo_light_samples",
+               "leave-one-out renders use the relight stage's renderer and samples (relight.renderer); delete the key");
+    t->Retired("loo_brdf_samples",
+               "leave-one-out renders use the relight stage's renderer and samples (relight.renderer); delete the key");
   }
-  void Check() const {
-    if (loo_light_samples + loo_brdf_samples < 1) {
-      RELIGHT_USER_ERROR() << "evaluate.loo_light_samples + evaluate.loo_brdf_samples must be at least 1";
-    }
-  }
+  void Check() const {}
 };
 
 }  // namespace relight

@@ -206,6 +206,12 @@ TEST(LeaveOneOut, RestrictAndSpread) {
   EXPECT_EQ(SpreadPhotos(10, 4), (std::vector<uint32_t>{1, 3, 6, 8}));
   EXPECT_EQ(SpreadPhotos(3, 0), (std::vector<uint32_t>{0, 1, 2}));
   EXPECT_EQ(SpreadPhotos(3, 5), (std::vector<uint32_t>{0, 1, 2}));
+  // Groups of at most a fifth of the collection, spread round robin.
+  using Groups = std::vector<std::vector<uint32_t>>;
+  EXPECT_EQ(LeaveOutGroups({1, 3, 6, 8}, 10), (Groups{{1, 6}, {3, 8}}));
+  EXPECT_EQ(LeaveOutGroups({0, 1, 2, 3, 4, 5, 6, 7, 8, 9}, 10), (Groups{{0, 5}, {1, 6}, {2, 7}, {3, 8}, {4, 9}}));
+  EXPECT_EQ(LeaveOutGroups({1, 3}, 4), (Groups{{1}, {3}}));
+  EXPECT_EQ(LeaveOutGroups({2, 7, 12}, 100), (Groups{{2, 7, 12}}));
 }
 
 TEST(LeaveOneOut, HeldOutPhotoLightingFromReflectanceFittedWithoutIt) {
@@ -243,6 +249,19 @@ TEST(LeaveOneOut, HeldOutPhotoLightingFromReflectanceFittedWithoutIt) {
   EXPECT_LT(AngleDeg(BrightestLobeDirection(fit.lighting_oct), s.sun_dirs_world[photo]), 11.0);
   // Reflectance from 5 of 6 photos: every material weight is finite and non-negative.
   for (float w : fit.reflectance.weights) EXPECT_TRUE(std::isfinite(w) && w >= 0);
+
+  // The stage's way: photos 2 and 5 left out together, one solve from scratch without both, then a fold of
+  // 3 iterations for photo 2 started from it (photo 5 added back). Its start never saw photo 2: it predicts
+  // the held-out map and observations about as well as the fold from scratch.
+  const ReflectanceState group_start = SolveWithout(&s.problem, o, {photo, 5});
+  EXPECT_EQ(s.problem.visibility.per_vertex.size(), vis) << "the problem is restored";
+  const LeaveOneOutFit warm = LeaveOneOut(&s.problem, o, photo, 3, &group_start);
+  EXPECT_LE(warm.reflectance_summary.iterations.size(), 3u);
+  ASSERT_EQ(warm.lighting_oct.width, 16);
+  const double warm_error = CompareEnvMaps(warm.lighting_oct, truth, true).relative_error;
+  EXPECT_NEAR(warm_error, c.relative_error, 0.1 * c.relative_error);
+  EXPECT_NEAR(warm.photo_rmse, fit.photo_rmse, 0.1 * fit.photo_rmse);
+  EXPECT_GT(fit.photo_rmse, 0);
 }
 
 // Stage folders whose model frame differs from the truth's by a known similarity, holding the true

@@ -5,7 +5,7 @@
 // e.g. mvs_evaluate <ws>/cache/mvs/<key> <ws>/cache/ingest/<key>/ground_truth
 // --maps=geometric_unfiltered (or photometric) scores the maps before filtering instead of the final ones;
 // --pixel-centres compares at our pixel centres instead of along the true point's ray (the first scoring
-// in docs/RESULTS.md).
+// in docs/RESULTS.md@15cf301).
 #include <cstdio>
 #include <exception>
 #include <string>

@@ -25,9 +25,9 @@ struct MvsOptions {
   int min_shared_points = 5;                  // A source view needs at least this many (weighted) shared points.
   // --- matching cost (bilateral-weighted NCC, Schönberger et al. 2016 §4.1)
   // The window is smaller than COLMAP's (radius 5, σ 5): near silhouettes, depth edges and on curved or
-  // slanted surfaces a wide window moves the cost minimum off the true depth (docs/RESULTS.md, "Multi-view
+  // slanted surfaces a wide window moves the cost minimum off the true depth (docs/RESULTS.md@15cf301, "Multi-view
   // stereo"); 7 × 7 samples with σ = 2 px were the best of the sizes tried on both synthetic scenes there.
-  // (Its one failed chain run was the mesh stage's crop box, fixed since; RESULTS, "Default window".)
+  // (Its one failed chain run was the mesh stage's crop box, fixed since; RESULTS@15cf301, "Default window".)
   int window_radius = 3;        // Half size of the matching window in pixels.
   int window_step = 1;          // Sample every `window_step`-th pixel of the window (1: 49 samples for radius 3).
   double sigma_color = 0.2;     // Bilateral weight: grey-level scale (images in [0, 1]).

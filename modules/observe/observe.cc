@@ -268,7 +268,7 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
     // Clipped pixels are the footprint's brightest (or darkest): the mean of the rest is biased, not noisier.
     // Over-exposed pixels are known per channel (bound_channels = clipped): a footprint holding any is a
     // bound in those channels whatever its distrusted share, since even one clipped highlight pixel can
-    // carry much of the footprint's energy (docs/RESULTS.md, item 16). Other distrusted pixels (black-clipped,
+    // carry much of the footprint's energy (docs/RESULTS.md@15cf301, item 16). Other distrusted pixels (black-clipped,
     // next to a clipped pixel) bias the mean only over max_distrusted_share.
     float over_share[3] = {0, 0, 0};  // each channel's share of over-exposed pixels
     bool over_exposed = false;

@@ -54,7 +54,8 @@ struct ObserveOptions {
            "since the distrusted ones are the brightest (highlights) or the darkest, not a random share. What it "
            "gives instead is set by clipped_footprints. Observations under the share have their confidence lowered "
            "by it. 0 treats every footprint that touches a clipped pixel so; 1 averages the trusted pixels of all "
-           "(observe stage version 2). docs/RESULTS.md measures both ends. With clipped_footprints = lower_bound and "
+           "(observe stage version 2). docs/RESULTS.md@15cf301 measures both ends. With "
+           "clipped_footprints = lower_bound and "
            "bound_channels = clipped, a footprint holding any over-exposed pixel is a lower bound in the channels "
            "that clipped whatever this share (observe stage version 7): the share then governs only the pixels "
            "distrusted for other reasons (black-clipped, next to a clipped pixel).")
@@ -69,7 +70,7 @@ struct ObserveOptions {
            "Which channels of a lower bound are bounds. clipped: only those with an over-exposed pixel in the "
            "footprint (linearize stats overexposed_linear); the others are ordinary measurements of the same mean "
            "(observe stage version 5). all: every channel, since a pixel is distrusted when one channel clips "
-           "(version 4). docs/RESULTS.md measures both.")
+           "(version 4). docs/RESULTS.md@15cf301 measures both.")
         .Choices({"clipped", "all"});
   }
   void Check() const {

@@ -279,6 +279,11 @@ class ReportBuilder {
           reason = metrics_["not_available"][key].get<std::string>();
         value = "<span class=\"na\">n/a: " + html::Escape(reason) + "</span>";
       }
+      if (key == "loo_psnr_db" && metrics_.contains("leave_one_out") &&
+          std::isfinite(Num(metrics_["leave_one_out"], "rerender_psnr_db"))) {
+        value += " <span class=\"def\">(the same photos re-rendered: " +
+                 html::Number(Num(metrics_["leave_one_out"], "rerender_psnr_db"), 2) + ")</span>";
+      }
       rows.push_back({"<code>" + key + "</code>", value, "<span class=\"def\">" + Definitions().at(key) + "</span>"});
     }
     s << html::Table({"metric", "value", "definition"}, rows);
@@ -375,11 +380,11 @@ class ReportBuilder {
         const std::string rel = v[key].get<std::string>();
         return Fig(JoinPath(mesh, rel), "geometry/" + fs::path(rel).filename().string(), name + ": " + what);
       };
-      const std::string photo = photo_files.count(name)
-                                    ? Fig(photo_files[name], "geometry/" + fs::path(name).stem().string() + "_photo" +
-                                                                 fs::path(photo_files[name]).extension().string(),
-                                          name + ": photo")
-                                    : "<span class=\"na\">n/a</span>";
+      const std::string photo = photo_files.count(name) ? Fig(photo_files[name],
+                                                              "geometry/" + fs::path(name).stem().string() + "_photo" +
+                                                                  fs::path(photo_files[name]).extension().string(),
+                                                              name + ": photo")
+                                                        : "<span class=\"na\">n/a</span>";
       rows.push_back({html::Escape(name), photo, fig("points", "fused points"), fig("mesh", "mesh")});
     }
     s << html::Table({"photo", "photo", "fused MVS points", "cleaned mesh"}, rows, "images");
@@ -687,6 +692,75 @@ class ReportBuilder {
                  "     '' skip 1 using 1:3 with linespoints lw 2 title 'held-out'");
       s << html::Table({"iteration", "training RMSE", "held-out RMSE", "lighting [s]", "reflectance [s]"}, rows);
     }
+    AccuracyTimeChart(s, j);
+  }
+
+  // Held-out error against the solve's wall clock for everything the solve tried: every iteration of every
+  // start (inverse.init_gloss), every model-selection candidate, and the kept iterate marked.
+  void AccuracyTimeChart(std::ostringstream& s, const Json& j) {
+    const Json starts = j.value("starts", Json::array());
+    bool timed = false;
+    for (const auto& st : starts) timed |= st.contains("solve_seconds") && !st["solve_seconds"].empty();
+    if (!timed) return;
+    bool holdout = false;
+    for (const auto& st : starts)
+      for (const auto& v : st.value("holdout_rmse", std::vector<double>{})) holdout |= v > 0;
+    const char* error_key = holdout ? "holdout_rmse" : "train_rmse";
+    // Rows: series (0..S-1 the starts, S the candidates, S+1 the kept iterate), label, seconds, error.
+    std::vector<std::vector<std::string>> csv, table;
+    const int num_starts = static_cast<int>(starts.size());
+    double kept_seconds = NAN, kept_error = NAN;
+    for (int k = 0; k < num_starts; ++k) {
+      const Json& st = starts[k];
+      const auto t = st.value("solve_seconds", std::vector<double>{});
+      const auto e = st.value(error_key, std::vector<double>{});
+      for (size_t i = 0; i < t.size() && i < e.size(); ++i)
+        csv.push_back({std::to_string(k),
+                       CsvField("start " + std::to_string(k + 1) + " iteration " + std::to_string(i + 1)),
+                       CsvNumber(t[i]), CsvNumber(e[i])});
+      const int best = st.value("best_iteration", 0);
+      if (st.value("chosen", false) && best >= 1 && size_t(best) <= std::min(t.size(), e.size())) {
+        kept_seconds = t[best - 1];
+        kept_error = e[best - 1];
+      }
+      table.push_back({"start " + std::to_string(k + 1) + " (init_gloss " + html::Number(Num(st, "init_gloss"), 2) +
+                           ")" + (st.value("chosen", false) ? " <b>kept</b>" : ""),
+                       std::to_string(st.value("iterations", 0)), html::Number(Num(st, "score"), 6),
+                       html::Number(Num(st, "seconds"), 1)});
+    }
+    bool candidates = false;
+    if (j.contains("model_selection"))
+      for (const auto& c : j["model_selection"].value("candidates", Json::array())) {
+        candidates = true;
+        const double e = Num(c, error_key);
+        csv.push_back({std::to_string(num_starts), CsvField(c.value("model", "")), CsvNumber(Num(c, "solve_seconds")),
+                       CsvNumber(e)});
+        table.push_back(
+            {"candidate: " + html::Escape(c.value("model", "")) + (c.value("chosen", false) ? " <b>chosen</b>" : ""),
+             "", html::Number(e, 6), html::Number(Num(c, "seconds"), 1)});
+      }
+    if (std::isfinite(kept_seconds))
+      csv.push_back({std::to_string(num_starts + 1), "kept", CsvNumber(kept_seconds), CsvNumber(kept_error)});
+    std::ostringstream body;
+    body << "set xlabel 'seconds since the solve began (transport rows included)'\n"
+         << "set ylabel '" << (holdout ? "held-out" : "training") << " RMSE (linear photo units)'\n"
+         << "set key top right\nplot ";
+    for (int k = 0; k < num_starts; ++k)
+      body << (k ? ", \\\n     " : "") << "'accuracy_time.csv' skip 1 using 3:($1==" << k
+           << " ? $4 : NaN) with linespoints lw 2 title 'start " << k + 1 << " (init_gloss "
+           << html::Number(Num(starts[k], "init_gloss"), 2) << ")'";
+    if (candidates)
+      body << ", \\\n     'accuracy_time.csv' skip 1 using 3:($1==" << num_starts
+           << " ? $4 : NaN) with points pt 6 ps 1.2 title 'model candidates'";
+    body << ", \\\n     'accuracy_time.csv' skip 1 using 3:($1==" << num_starts + 1
+         << " ? $4 : NaN) with points pt 7 ps 2.2 lc rgb '#cc0000' title 'kept'";
+    s << "<h3>Accuracy against time</h3><p class=\"def\">" << (holdout ? "Held-out" : "Training")
+      << " RMSE of every iterate the solve computed, against the wall clock since the solve began: each start's "
+         "iterations (a start that lost the race stops early), each model-selection candidate's best iterate "
+         "(inverse.select_model), and the iterate kept (red).</p>\n"
+      << Chart("accuracy_time", {"series", "label", "solve_seconds", error_key}, csv, body.str())
+      << html::Table({"tried", "iterations", std::string(holdout ? "held-out" : "training") + " RMSE", "seconds"},
+                     table);
   }
 
   void LeaveOneOutSection(std::ostringstream& s) {
@@ -699,9 +773,11 @@ class ReportBuilder {
         reason = metrics_["not_available"]["loo_psnr_db"].get<std::string>();
       s << "<p class=\"na\">Not computed: " << html::Escape(reason) << ".</p>\n";
     } else {
-      s << "<p class=\"def\">For each scored photo, the reflectance is solved from the other photos only, then just "
-           "this photo's environment map is fitted; the render is scored like the re-renderings (which did see the "
-           "photo).</p>\n";
+      s << "<p class=\"def\">For each scored photo, the reflectance is solved from the other photos only (a short "
+           "solve "
+           "started from a reflectance solved without the photo's group, docs/METRICS.md), then just this photo's "
+           "environment map is fitted; the render is scored like the re-renderings (which did see the photo), and "
+           "the headline compares the two over the same photos.</p>\n";
       std::map<std::string, double> rerender;
       if (metrics_.contains("rerender"))
         for (const auto& p : metrics_["rerender"].value("photos", Json::array()))

@@ -7,7 +7,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
+#include <set>
+#include <sstream>
 
 #include "core/fs.h"
 #include "core/json.h"
@@ -164,6 +167,38 @@ TEST(ReportBrowser, TinySyntheticChainPageLoadsInHeadlessChromium) {
       << "the env-map table's 'determined by the photos' column";
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.svg"));
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.csv"));
+  // Accuracy against time: every start's iterations at increasing wall clock, then the kept iterate, which
+  // is one of them.
+  EXPECT_TRUE(fs::exists(dir / "ws/report/charts/accuracy_time.svg"));
+  std::ifstream csv(dir / "ws/report/charts/accuracy_time.csv");
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "series,label,solve_seconds,holdout_rmse");
+  std::map<int, double> last_seconds;
+  std::set<std::pair<double, double>> iterates;
+  int kept = 0;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> f;
+    std::stringstream fields(line);
+    for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+    ASSERT_EQ(f.size(), 4u) << line;
+    const double seconds = std::stod(f[2]), error = std::stod(f[3]);
+    EXPECT_GT(error, 0) << line;
+    if (f[1] == "kept") {
+      ++kept;
+      EXPECT_EQ(iterates.count({seconds, error}), 1u) << "the kept point is an iterate: " << line;
+      continue;
+    }
+    const int series = std::stoi(f[0]);
+    EXPECT_GT(seconds, last_seconds.count(series) ? last_seconds[series] : 0.0) << line;
+    last_seconds[series] = seconds;
+    iterates.insert({seconds, error});
+  }
+  EXPECT_EQ(kept, 1);
+  EXPECT_GE(last_seconds.size(), 1u);
+  // The leave-one-out headline beside the re-rendering of the same photo.
+  EXPECT_TRUE(m["leave_one_out"]["rerender_psnr_db"].is_number()) << m["leave_one_out"].dump();
+  EXPECT_NE(source.find("(the same photos re-rendered: "), std::string::npos);
 }
 
 }  // namespace

@@ -116,16 +116,17 @@ struct SolveContext {
   std::vector<std::vector<uint32_t>> subset;  // per photo, lighting-step observations
   std::vector<std::vector<uint32_t>> neighbours;
   std::vector<char> observed;
+  const Timer* solve_timer = nullptr;  // started with SolveInverse: IterationRecord::solve_seconds
 };
 
 // One candidate model.
 struct ModelSpec {
   std::vector<char> lobe_enabled;  // per basis lobe
   int materials = 1;
-  int solve_resolution = 0;        // haar: lighting solved at this resolution (0: full)
+  int solve_resolution = 0;  // haar: lighting solved at this resolution (0: full)
   int max_iterations = 6;
   int coarse_iterations = 3;
-  double init_gloss = 0;           // neutral specular share of the colour start (inverse.init_gloss)
+  double init_gloss = 0;  // neutral specular share of the colour start (inverse.init_gloss)
 };
 
 struct AlternationResult {
@@ -157,11 +158,11 @@ struct Alternation {
   ReflectanceState best_reflectance;
   std::vector<BrdfLobe> basis;
   double previous_objective = -1;
-  double seconds = 0;           // time spent in iterations so far
+  double seconds = 0;  // time spent in iterations so far
   int next_iteration = 0;
   bool refit_initialisation = false;
-  bool finished = false;        // converged, fixed, or out of budget: no more iterations
-  bool solve_lighting = true;   // false: the lighting is known and fixed
+  bool finished = false;       // converged, fixed, or out of budget: no more iterations
+  bool solve_lighting = true;  // false: the lighting is known and fixed
   bool solve_reflectance = true;
 };
 
@@ -186,7 +187,8 @@ Alternation StartAlternation(const SolveContext& ctx, const ModelSpec& spec) {
     reflectance = InitializeReflectance(obs, ctx.train_exact, nv, a.basis, spec.materials, o.seed, spec.init_gloss,
                                         &spec.lobe_enabled);
   }
-  if (!(o.fixed_reflectance && known != nullptr && known->has_reflectance)) reflectance.lobe_enabled = spec.lobe_enabled;
+  if (!(o.fixed_reflectance && known != nullptr && known->has_reflectance))
+    reflectance.lobe_enabled = spec.lobe_enabled;
   a.solve_lighting = !(known != nullptr && known->has_lighting && o.fixed_lighting);
   a.solve_reflectance = !(o.fixed_reflectance && known != nullptr && known->has_reflectance);
   if (!a.solve_lighting) {
@@ -246,11 +248,10 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
     const ReflectanceState prev_reflectance = reflectance;
     if (solve_lighting) {
       int resolution = spec.solve_resolution;
-      const bool coarse = solve_reflectance && o.lighting_basis == "haar" && iter < spec.coarse_iterations &&
-                          o.env_resolution >= 16;
+      const bool coarse =
+          solve_reflectance && o.lighting_basis == "haar" && iter < spec.coarse_iterations && o.env_resolution >= 16;
       if (coarse) resolution = std::min(resolution > 0 ? resolution : o.env_resolution, o.env_resolution / 2);
-      const LightingStepResult lr =
-          SolveLighting(transport, obs, ctx.subset, reflectance, o, &lighting, resolution);
+      const LightingStepResult lr = SolveLighting(transport, obs, ctx.subset, reflectance, o, &lighting, resolution);
       rec.lighting_seconds = lr.seconds;
       rec.photo_rmse = lr.photo_rmse;
     }
@@ -272,7 +273,8 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
     // held fixed through this iteration: the reflectance step, the extrapolation test and the
     // objective (the IRLS surrogate Σ α r (y − ŷ)²) all use them.
     std::vector<float> robust;
-    if (use_robust) robust = ReflectanceRobustWeights(obs, train, responses, reflectance, o.robust_loss, o.robust_scale);
+    if (use_robust)
+      robust = ReflectanceRobustWeights(obs, train, responses, reflectance, o.robust_loss, o.robust_scale);
     const std::vector<float>* robust_ptr = use_robust ? &robust : nullptr;
     if (solve_reflectance) {
       std::vector<uint8_t> met;
@@ -280,8 +282,8 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
         if (has_bounds) met = MetLowerBounds(obs, train, responses, reflectance);
         SolveMaterials(obs, train, responses, &reflectance, robust_ptr, &met);
         if (has_bounds) met = MetLowerBounds(obs, train, responses, reflectance);
-        SolveWeights(obs, train, responses, o.sparsity, &reflectance, &ctx.neighbours, o.weight_smoothness,
-                     robust_ptr, &met);
+        SolveWeights(obs, train, responses, o.sparsity, &reflectance, &ctx.neighbours, o.weight_smoothness, robust_ptr,
+                     &met);
       }
     }
     rec.reflectance_seconds = step.Seconds();
@@ -349,6 +351,7 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
       RLOG_DEBUG("iteration {}: train RMSE {:.5g}, held-out RMSE {:.5g} (lighting {:.1f} s, reflectance {:.1f} s)",
                  rec.iteration, rec.train_rmse, rec.holdout_rmse, rec.lighting_seconds, rec.reflectance_seconds);
     }
+    if (ctx.solve_timer != nullptr) rec.solve_seconds = ctx.solve_timer->Seconds();
     result.iterations.push_back(rec);
     const double score = ctx.holdout.empty() ? rec.train_rmse : rec.holdout_rmse;
     if (score < result.best_score) {
@@ -444,6 +447,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
 
   // Held-out and training observations; per-photo lighting subsets.
   SolveContext ctx{problem, o, known, transport, {}, {}, {}, {}, {}, {}};
+  ctx.solve_timer = &total;
   std::mt19937_64 rng(static_cast<uint64_t>(o.seed));
   std::uniform_real_distribution<double> uniform(0, 1);
   for (size_t k = 0; k < obs.records.size(); ++k) {
@@ -470,18 +474,21 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
 
   ModelSpec spec;
   spec.lobe_enabled.assign(basis.size(), 1);
+  // A known reflectance (fixed or the starting point) brings its own lobes.
+  if (known != nullptr && known->has_reflectance && known->reflectance.lobe_enabled.size() == basis.size())
+    spec.lobe_enabled = known->reflectance.lobe_enabled;
   // A known reflectance (fixed or the starting point) brings its own materials.
   spec.materials = known != nullptr && known->has_reflectance ? known->reflectance.num_materials : o.materials;
   spec.max_iterations = o.max_iterations;
   spec.coarse_iterations = o.coarse_iterations;
   spec.init_gloss = o.init_gloss.front();
   // With known lighting only the reflectance model (materials, lobes) is selected.
-  const bool can_select =
-      o.select_model && !o.fixed_reflectance && !o.start_from_truth && !ctx.holdout.empty();
+  const bool can_select = o.select_model && !o.fixed_reflectance && !o.start_from_truth && !ctx.holdout.empty() &&
+                          !(known != nullptr && known->has_reflectance);
   if (o.select_model && !can_select) {
     RLOG_WARN(
-        "inverse.select_model needs held-out observations and a reflectance to solve (not fixed_reflectance or "
-        "start_from_truth); solving the configured model");
+        "inverse.select_model needs held-out observations and a reflectance to solve from scratch (not "
+        "fixed_reflectance, start_from_truth or a warm start); solving the configured model");
   }
   if (can_select) {
     // Model selection by held-out error: candidates share the transport rows;
@@ -492,8 +499,11 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
       ModelSpec s = candidate;
       s.max_iterations = o.selection_iterations;
       s.coarse_iterations = std::min(o.coarse_iterations, o.selection_iterations - 1);
+      Timer candidate_timer;
       const AlternationResult r = Alternate(ctx, s);
       ModelCandidate c;
+      c.seconds = candidate_timer.Seconds();
+      c.solve_seconds = total.Seconds();
       c.stage = stage;
       c.description = DescribeSpec(candidate, basis, o.env_resolution);
       c.materials = candidate.materials;
@@ -612,6 +622,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
     for (const IterationRecord& it : r.iterations) {
       rec.train_rmse.push_back(it.train_rmse);
       rec.holdout_rmse.push_back(it.holdout_rmse);
+      rec.solve_seconds.push_back(it.solve_seconds);
     }
     summary.starts.push_back(rec);
   }
@@ -650,26 +661,25 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
     }
     summary.lower_bounds_missed = bounds > 0 ? double(missed) / bounds : 0.0;
     summary.lower_bounds_mean_shortfall = missed > 0 ? shortfall / missed : 0.0;
-    RLOG_INFO("lower bounds: the model stays more than 1% below {:.1f}% of them (bound channels), by {:.1f}% on "
-              "average",
-              100 * summary.lower_bounds_missed, 100 * summary.lower_bounds_mean_shortfall);
+    RLOG_INFO(
+        "lower bounds: the model stays more than 1% below {:.1f}% of them (bound channels), by {:.1f}% on "
+        "average",
+        100 * summary.lower_bounds_missed, 100 * summary.lower_bounds_mean_shortfall);
   }
-  const bool measure_resolution =
-      o.map_resolution == "on" ||
-      (o.map_resolution == "auto" && (o.lighting_basis != "haar" || o.env_resolution <= 32));
+  const bool measure_resolution = o.map_resolution == "on" || (o.map_resolution == "auto" &&
+                                                               (o.lighting_basis != "haar" || o.env_resolution <= 32));
   if (measure_resolution && !(o.fixed_lighting && known != nullptr && known->has_lighting)) {
     // What the photos determine of each map, under the final reflectance.
     Timer resolution_timer;
-    summary.map_resolution =
-        LightingResolution(transport, obs, ctx.subset, result.reflectance, o, result.lighting);
+    summary.map_resolution = LightingResolution(transport, obs, ctx.subset, result.reflectance, o, result.lighting);
     summary.map_resolution_seconds = resolution_timer.Seconds();
     std::vector<double> dof;
     for (const MapResolution& m : summary.map_resolution) dof.push_back(m.dof);
     if (!dof.empty()) {
       std::nth_element(dof.begin(), dof.begin() + dof.size() / 2, dof.end());
       RLOG_INFO("the photos determine a median of {:.0f} of the {} coefficients of each map ({:.1f} s)",
-                dof[dof.size() / 2], result.lighting.basis == "haar" ? o.env_resolution * o.env_resolution
-                                                                     : result.lighting.dim,
+                dof[dof.size() / 2],
+                result.lighting.basis == "haar" ? o.env_resolution * o.env_resolution : result.lighting.dim,
                 summary.map_resolution_seconds);
     }
   }
@@ -684,8 +694,8 @@ KnownQuantities LoadKnown(const InverseOptions& o, const std::string& ingest_dir
   KnownQuantities known;
   const std::string gt = JoinPath(ingest_dir, "ground_truth");
   if (!fs::is_directory(gt)) {
-    RELIGHT_USER_ERROR() << "inverse.fixed_lighting / fixed_reflectance / start_from_truth need ground truth, but '" << gt
-                         << "' does not exist (only synthetic scenes and imported data sets have it)";
+    RELIGHT_USER_ERROR() << "inverse.fixed_lighting / fixed_reflectance / start_from_truth need ground truth, but '"
+                         << gt << "' does not exist (only synthetic scenes and imported data sets have it)";
   }
   if (o.fixed_lighting) {
     const Json lighting = ReadJsonFile(JoinPath(gt, "lighting.json"));
@@ -719,8 +729,9 @@ KnownQuantities LoadKnown(const InverseOptions& o, const std::string& ingest_dir
     for (int m = 0; m < r.num_materials; ++m) {
       const std::vector<float>* w = problem.mesh.FindProperty("w" + std::to_string(m));
       if (w == nullptr) {
-        RELIGHT_USER_ERROR() << "inverse.fixed_reflectance / start_from_truth need the ground-truth mesh with material weights "
-                             << "(property w" << m << "); set mesh.source: ground_truth";
+        RELIGHT_USER_ERROR()
+            << "inverse.fixed_reflectance / start_from_truth need the ground-truth mesh with material weights "
+            << "(property w" << m << "); set mesh.source: ground_truth";
       }
       for (size_t v = 0; v < w->size(); ++v) r.weights[v * r.num_materials + m] = (*w)[v];
     }
@@ -765,7 +776,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   EnsureDir(JoinPath(output_dir, "envmaps"));
   const int n_out = o.lighting_basis == "haar" ? o.env_resolution : 32;
   Json photos_json = Json::array();
-  std::vector<double> coefficients_99;  // per photo (haar)
+  std::vector<double> coefficients_99;              // per photo (haar)
   std::vector<double> determined, resolved_detail;  // per photo (LightingResolution)
   for (const auto& photo : problem.photos) {
     const std::string stem = fs::path(photo.name).stem().string();
@@ -797,7 +808,8 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
       // detail energy (the mean, coefficient 0, left out).
       std::vector<float> lum(size_t(n_out) * n_out);
       for (size_t k = 0; k < lum.size(); ++k)
-        lum[k] = static_cast<float>(Luminance(Eigen::Vector3d(oct.pixels[k * 3], oct.pixels[k * 3 + 1], oct.pixels[k * 3 + 2])));
+        lum[k] = static_cast<float>(
+            Luminance(Eigen::Vector3d(oct.pixels[k * 3], oct.pixels[k * 3 + 1], oct.pixels[k * 3 + 2])));
       HaarForward(lum.data(), n_out, lum.data());
       lum[0] = 0.0f;
       const size_t used = KeepEnergy(lum.data(), n_out, 0.99).size();
@@ -866,6 +878,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
                      {"holdout_rmse", it.holdout_rmse},
                      {"lighting_seconds", it.lighting_seconds},
                      {"reflectance_seconds", it.reflectance_seconds},
+                     {"solve_seconds", it.solve_seconds},
                      {"photo_rmse", it.photo_rmse}});
   }
   j["iterations"] = iters;
@@ -882,6 +895,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
                         {"seconds", st.seconds},
                         {"train_rmse", st.train_rmse},
                         {"holdout_rmse", st.holdout_rmse},
+                        {"solve_seconds", st.solve_seconds},
                         {"chosen", st.chosen}});
     }
     j["starts"] = starts;
@@ -896,6 +910,8 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
                        {"env_resolution", c.env_resolution},
                        {"holdout_rmse", c.holdout_rmse},
                        {"train_rmse", c.train_rmse},
+                       {"seconds", c.seconds},
+                       {"solve_seconds", c.solve_seconds},
                        {"chosen", c.chosen}});
     }
     j["model_selection"] = {{"seconds", s.selection_seconds}, {"candidates", cands}};

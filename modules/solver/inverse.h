@@ -52,6 +52,7 @@ struct IterationRecord {
   double reflectance_seconds = 0;
   std::vector<double> photo_rmse;  // lighting-subset RMSE per photo
   double extrapolation = 0;        // accepted extrapolation step (0: none)
+  double solve_seconds = 0;        // wall clock from the start of SolveInverse to the end of this iteration
 };
 
 // A model tried by automatic model selection.
@@ -63,6 +64,8 @@ struct ModelCandidate {
   int env_resolution = 0;
   double holdout_rmse = 0;
   double train_rmse = 0;
+  double seconds = 0;        // its short alternation
+  double solve_seconds = 0;  // wall clock from the start of SolveInverse to its end
   bool chosen = false;
 };
 
@@ -75,6 +78,7 @@ struct StartRecord {
   double seconds = 0;
   std::vector<double> train_rmse;    // per iteration run
   std::vector<double> holdout_rmse;  // per iteration run (0 without a hold-out)
+  std::vector<double> solve_seconds; // per iteration run: IterationRecord::solve_seconds
   bool chosen = false;
 };
 

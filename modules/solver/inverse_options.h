@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 11};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 12};
 
 struct InverseOptions {
   // Lighting representation.
@@ -89,27 +89,28 @@ struct InverseOptions {
            "averages the photo over: observe.footprint_scale, widened by its pixels' width, kernel_scale), with the mesh's interpolated normals inside it, instead "
            "of the vertex normal alone, so narrow lobes predict the highlight the pixels saw. auto: on for a given "
            "mesh (mesh.source ground_truth or file), whose normals are the surface's; off for an MVS reconstruction, "
-           "whose normals inside a footprint are estimates (measured in docs/RESULTS.md).")
+           "whose normals inside a footprint are estimates (measured in docs/RESULTS.md@15cf301).")
         .Choices({"auto", "on", "off"});
     t->Add("transport_supersampling", &transport_supersampling,
            "Pixel route (haar): each visibility texel's BRDF slice and splat onto the global map are evaluated at "
            "this many points per side. 0 (automatic): enough for one splat per global texel side, 1 at the default "
            "resolutions, 2 when env_resolution is twice visibility.resolution (a coarser quadrature aliases narrow "
-           "lobes against the finer map; docs/RESULTS.md item 18).")
+           "lobes against the finer map; docs/RESULTS.md@15cf301 item 18).")
         .Range(0, 8);
     t->Add("basis", &basis,
            "Basis BRDFs: lambertian, ggx:ALPHA[:F0], cook_torrance:ALPHA[:F0], phong:EXPONENT. "
            "The first Lambertian lobe carries the albedo.");
     t->Add("materials", &materials,
            "Number of materials (k-means regions at initialisation). The default 6 is the paper's Minerva model; "
-           "blends of more materials than the scene's true ones fit the synthetic scenes better (docs/RESULTS.md). "
+           "blends of more materials than the scene's true ones fit the synthetic scenes better "
+           "(docs/RESULTS.md@15cf301). "
            "select_model chooses fewer when the held-out observations do not support them.")
         .Range(1, 32);
     t->Add("init", &init,
            "How materials start: colour (k-means on hue and saturation of the vertices' mean colours, each region's "
            "median colour as its diffuse colour; the paper) or vertex_fits (once the first lighting is known, k-means "
            "on per-vertex reflectance fits: diffuse colour direction and each glossy lobe's share, so materials of one "
-           "hue that differ in gloss separate; docs/RESULTS.md).")
+           "hue that differ in gloss separate; docs/RESULTS.md@15cf301).")
         .Choices({"colour", "vertex_fits"});
     t->Add("init_gloss", &init_gloss,
            "Starting points of the alternation, one per value: every material starts with a neutral (white) specular "
@@ -117,13 +118,13 @@ struct InverseOptions {
            "start runs inverse.start_race_iterations iterations, and the one with the lowest held-out error goes on "
            "to the end; solve_summary.json lists every start. The bilinear problem has local minima: on the clean synthetic bunny the start 0.4 "
            "ends 0.65 dB of joint relighting above 0, on synthetic_tiny 0.7 dB below, and the held-out error ranks "
-           "them as relighting does (docs/RESULTS.md items 19-20). Unused with a known reflectance.")
+           "them as relighting does (docs/RESULTS.md@15cf301 items 19-20). Unused with a known reflectance.")
         .Range(0, 10);
     t->Add("start_race_iterations", &start_race_iterations,
            "With several starts (inverse.init_gloss): run every start this many iterations, then continue only the "
            "one with the lowest held-out error so far (0: every start runs the whole alternation). The default, the "
            "first full-resolution iteration after inverse.coarse_iterations, kept the start the full runs keep on "
-           "the three synthetic scenes in about 0.6 of their alternation time (docs/RESULTS.md item 21); the "
+           "the three synthetic scenes in about 0.6 of their alternation time (docs/RESULTS.md@15cf301 item 21); the "
            "leader can change later, so 0 is the safe choice when time does not matter.")
         .Range(0, 1000);
     t->Add("sparsity", &sparsity,
@@ -131,7 +132,7 @@ struct InverseOptions {
         .Range(0, 1);
     t->Add("weight_smoothness", &weight_smoothness,
            "Pull of each vertex's material weights towards its mesh neighbours', relative to its data term "
-           "(0: independent vertices, as in the seed; docs/RESULTS.md item 17 measures 0 to 0.2).")
+           "(0: independent vertices, as in the seed; docs/RESULTS.md@15cf301 item 17 measures 0 to 0.2).")
         .Range(0, 100);
     t->Add("smoothness", &smoothness,
            "Laplacian smoothness of environment maps, relative to the largest diagonal value of the system "
@@ -143,8 +144,8 @@ struct InverseOptions {
            "system times the map's mean radiance, and reweighted from the current map in every IRLS pass. It keeps "
            "what the photos support (a sun, a skyline) and drops the colour noise the per-texel freedom otherwise "
            "fits; 0 leaves the Laplacian alone (the seed). 0.003 keeps the joint relighting of the synthetic scenes "
-           "and lowers the map error of noisy photos by 7-15 %; 0.03 and more blur the lighting (docs/RESULTS.md "
-           "item 20).")
+           "and lowers the map error of noisy photos by 7-15 %; 0.03 and more blur the lighting "
+           "(docs/RESULTS.md@15cf301 item 20).")
         .Range(0, 100);
     t->Add("wavelet_sparsity_floor", &wavelet_sparsity_floor,
            "Smallest coefficient magnitude the sparsity reweighting divides by, relative to the map's mean radiance.")
@@ -161,7 +162,8 @@ struct InverseOptions {
            "Reweight the reflectance step (materials and weights) too: every reflectance step starts from robust "
            "weights of the current model's residuals (robust_loss, robust_scale, sigma per photo), so transient "
            "occluders seen in few photos do not leak into the materials. The objective that decides convergence is "
-           "then the robustly weighted one. Off by default: without outliers it slows the joint fit (docs/RESULTS.md).");
+           "then the robustly weighted one. Off by default: without outliers it slows the joint fit "
+           "(docs/RESULTS.md@15cf301).");
     t->Add("qp_solver", &qp_solver,
            "Non-negative lighting QP: projected_newton (active-set Newton on the dense system) or ceres "
            "(bounded Levenberg-Marquardt; slower, kept for comparison).")
@@ -182,7 +184,7 @@ struct InverseOptions {
         .Choices({"auto", "on", "off"});
     t->Add("max_iterations", &max_iterations,
            "Outer lighting/reflectance iterations (at most; tolerance and time_budget_s stop earlier). On the "
-           "synthetic bunnies the held-out error still falls after 6 (docs/RESULTS.md).")
+           "synthetic bunnies the held-out error still falls after 6 (docs/RESULTS.md@15cf301).")
         .Range(1, 100);
     t->Add("tolerance", &tolerance, "Stop when the training objective changes by less than this (relative).")
         .Range(0, 1);

@@ -495,7 +495,7 @@ TEST_F(SolverTest, RobustReflectanceIgnoresTransientOccluders) {
   // The reflectance starts from the truth (s.truth is a warm start): this tests the reweighting,
   // not the start. From the k-means start the occluders' colours corrupt the initial materials and
   // the reweighting, measured against that model, does not recover them (8.8 dB with or without it;
-  // docs/RESULTS.md, "Where the error comes from", item 9).
+  // docs/RESULTS.md@15cf301, "Where the error comes from", item 9).
   // Without outliers, reweighting costs little.
   o.robust_reflectance = false;
   const double clean_plain = AlbedoPsnr(s, SolveInverse(s.problem, o, &s.truth).reflectance);
@@ -560,7 +560,7 @@ TEST_F(SolverTest, JointSolveReproducesHeldOutObservationsAndFixesTheGauge) {
                 << s.truth.reflectance.weights[v * 2] << " " << s.truth.reflectance.weights[v * 2 + 1] << "\n";
   }
   // Alternation converges slowly along the albedo/shading valley; after 12 iterations the
-  // held-out error is a few percent (docs/RESULTS.md has the full-scale curves).
+  // held-out error is a few percent (docs/RESULTS.md@15cf301 has the full-scale curves).
   EXPECT_LT(best.holdout_rmse / mean_y, 0.05);
   EXPECT_LT(r.summary.iterations.back().train_rmse, 0.5 * r.summary.iterations.front().train_rmse);
   EXPECT_GE(r.summary.holdout_observations, 100u);
