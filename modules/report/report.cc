@@ -454,7 +454,9 @@ class ReportBuilder {
       s << "<p class=\"def\">Determined by the photos: how many of the map's coefficients the photos fix (the "
            "trace of the lighting step's resolution matrix; the rest of the map is the priors' fill-in), and the "
            "finest detail down to which at least half of every wavelet level is fixed. A diffuse object fixes few "
-           "and coarse ones, a shiny one many and fine ones; detail finer than that in the map is not measured.</p>\n";
+           "and coarse ones, a shiny one many and fine ones; detail finer than that in the map is not measured. "
+           "The grey map beside it (same layout as the octahedral map) shows each direction's share from the "
+           "photos: white where observations receive light from it, black where only the priors set it.</p>\n";
     }
     std::vector<std::vector<std::string>> rows;
     const int oct_w = std::max(96, o_.tile_px / 2);
@@ -472,9 +474,17 @@ class ReportBuilder {
           int total = 0;
           for (const Json& c : it->second.value("coefficients_per_level", Json::array())) total += c.get<int>();
           const Json& detail = it->second["resolved_detail_deg"];
-          row.push_back(html::Number(Num(it->second, "determined_coefficients"), 0) + " of " + std::to_string(total) +
-                        (detail.is_number() ? ", detail to " + html::Number(detail.get<double>(), 0) + "&deg;"
-                                            : ", the mean only"));
+          std::string cell = html::Number(Num(it->second, "determined_coefficients"), 0) + " of " +
+                             std::to_string(total) +
+                             (detail.is_number() ? ", detail to " + html::Number(detail.get<double>(), 0) + "&deg;"
+                                                 : ", the mean only");
+          if (it->second.contains("determined_map")) {
+            const std::string rel = it->second["determined_map"].get<std::string>();
+            cell = Fig(JoinPath(Input("inverse"), rel), "inverse/" + rel.substr(rel.find('/') + 1),
+                       name + ": seen by the photos (white) or filled by the priors (black)", oct_w, "pixelated") +
+                   "<br>" + cell;
+          }
+          row.push_back(cell);
         }
       }
       if (truth) {

@@ -14,6 +14,7 @@
 
 #include "core/fs.h"
 #include "core/json.h"
+#include "image/image.h"
 #include "testing/testing.h"
 
 namespace relight {
@@ -162,8 +163,17 @@ TEST(ReportBrowser, TinySyntheticChainPageLoadsInHeadlessChromium) {
     EXPECT_EQ(count, 16 * 16);
     EXPECT_GT(dof, 1.0);
     EXPECT_LT(dof, 256.0);
+    // The seen-or-prior map: a 16² grey PNG beside the map, copied beside the page.
+    ASSERT_TRUE(p.contains("determined_map")) << p.dump();
+    const Image share = ReadImage(dir / ("ws/stages/inverse/" + p["determined_map"].get<std::string>()));
+    EXPECT_EQ(share.width, 16);
+    EXPECT_EQ(share.height, 16);
+    EXPECT_GT(p["data_share_mean"].get<double>(), 0.0);
+    EXPECT_LT(p["data_share_mean"].get<double>(), 1.0);
+    const std::string stem = fs::path(p["determined_map"].get<std::string>()).filename().string();
+    EXPECT_TRUE(fs::is_regular_file(dir / ("ws/report/images/inverse/" + stem))) << stem;
   }
-  EXPECT_TRUE(std::regex_search(source, match, std::regex("<td>[0-9]+ of 256(, detail to [0-9]+&deg;|, the mean only)</td>")))
+  EXPECT_TRUE(std::regex_search(source, match, std::regex("<br>[0-9]+ of 256(, detail to [0-9]+&deg;|, the mean only)</td>")))
       << "the env-map table's 'determined by the photos' column";
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.svg"));
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.csv"));

@@ -824,6 +824,19 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
       entry["coefficients_per_level"] = m.coefficients_per_level;
       const double detail = ResolvedDetailDegrees(m, o.lighting_basis);
       entry["resolved_detail_deg"] = detail > 0 ? Json(detail) : Json();
+      if (m.data_share.size() == size_t(n_out) * n_out) {
+        // Which directions the photos see, which the priors fill: a grey octahedral map (white: the photos').
+        Image share(n_out, n_out, 1);
+        double mean = 0;
+        for (size_t k = 0; k < m.data_share.size(); ++k) {
+          share.pixels[k] = std::clamp(m.data_share[k], 0.0f, 1.0f);
+          mean += share.pixels[k] / double(m.data_share.size());
+        }
+        const std::string png = "envmaps/" + stem + "_determined.png";
+        WriteImage(JoinPath(output_dir, png), share);
+        entry["determined_map"] = png;
+        entry["data_share_mean"] = mean;
+      }
       determined.push_back(m.dof);
       if (detail > 0) resolved_detail.push_back(detail);
     }

@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 12};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 13};
 
 struct InverseOptions {
   // Lighting representation.

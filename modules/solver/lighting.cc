@@ -218,7 +218,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
   const int n_full = lighting->env_resolution;
   // Coarse solves use the top-left block of the Haar layout (see the header).
   const int n = haar && solve_resolution > 0 ? std::min(solve_resolution, n_full) : n_full;
-  const int block = n_full / n;                       // fine texels per coarse texel side
+  const int block = n_full / n;  // fine texels per coarse texel side
   const int dim = haar ? n * n : lighting->dim;
   const int num_photos = static_cast<int>(subset.size());
   LightingStepResult result;
@@ -290,8 +290,8 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
       if (haar && options.wavelet_sparsity > 0) {
         std::array<std::vector<float>, 3> maps;
         for (int c = 0; c < 3; ++c) maps[c].assign(start[c].data(), start[c].data() + dim);
-        sparsity_penalty = HaarL1Penalty({maps[0].data(), maps[1].data(), maps[2].data()}, n,
-                                         options.wavelet_sparsity_floor);
+        sparsity_penalty =
+            HaarL1Penalty({maps[0].data(), maps[1].data(), maps[2].data()}, n, options.wavelet_sparsity_floor);
       }
       for (int c = 0; c < 3; ++c) {
         Eigen::VectorXd x = start[c];
@@ -300,7 +300,8 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         accumulate(c, exact_rows[c], &q_exact, &rhs_exact);
         // λ from the whole system (every row), so it does not move with the active set.
         Eigen::VectorXd diagonal = q_exact.diagonal();
-        for (Eigen::Index r : bound_rows[c]) diagonal += (alpha[r] * robust[r]) * a[c].row(r).cast<double>().cwiseAbs2().transpose();
+        for (Eigen::Index r : bound_rows[c])
+          diagonal += (alpha[r] * robust[r]) * a[c].row(r).cast<double>().cwiseAbs2().transpose();
         const double diagonal_max = std::max(1e-30, diagonal.maxCoeff());
         const double lambda = options.smoothness * diagonal_max;
         // Lower bounds by an active set (semismooth Newton on the censored objective): the bounds the
@@ -392,6 +393,7 @@ std::vector<MapResolution> LightingResolution(const TransportStore& transport, c
     res.dof_per_level.assign(levels, 0.0);
     res.coefficients_per_level.assign(levels, 0);
     for (int k = 0; k < dim; ++k) ++res.coefficients_per_level[level[k]];
+    if (haar) res.data_share.assign(dim, 0.0f);
     const std::vector<uint32_t>& obs = subset[i];
     if (obs.empty()) return;
     const PhotoSystem sys = AssemblePhotoSystem(transport, observations, obs, reflectance, haar, n, n, dim);
@@ -416,9 +418,9 @@ std::vector<MapResolution> LightingResolution(const TransportStore& transport, c
                                            : std::vector<double>(rows, 1.0);
     Eigen::MatrixXd sparsity_penalty;
     if (haar && options.wavelet_sparsity > 0) {
-      sparsity_penalty = HaarL1Penalty({lighting.values[i][0].data(), lighting.values[i][1].data(),
-                                        lighting.values[i][2].data()},
-                                       n, options.wavelet_sparsity_floor);
+      sparsity_penalty =
+          HaarL1Penalty({lighting.values[i][0].data(), lighting.values[i][1].data(), lighting.values[i][2].data()}, n,
+                        options.wavelet_sparsity_floor);
     }
     for (int c = 0; c < 3; ++c) {
       // Rows that measure: the exact ones. A lower bound only says "at least" (the light in a clipped
@@ -442,6 +444,8 @@ std::vector<MapResolution> LightingResolution(const TransportStore& transport, c
       Eigen::MatrixXd q = h + (options.smoothness * diagonal_max) * regularizer;
       if (sparsity_penalty.size() > 0) q += (options.wavelet_sparsity * diagonal_max) * sparsity_penalty;
       q.diagonal().array() += 1e-9 * diagonal_max;
+      if (haar)
+        for (int k = 0; k < dim; ++k) res.data_share[k] += static_cast<float>(h(k, k) / q(k, k) / 3.0);
       Eigen::MatrixXd r = Eigen::LLT<Eigen::MatrixXd>(q).solve(h);  // R = (H + P)⁻¹ H
       if (haar) {
         // R in the Haar basis: W R Wᵀ (W orthonormal), columns then rows.

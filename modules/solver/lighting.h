@@ -57,6 +57,11 @@ struct MapResolution {
   // texels, wavelet/haar.h); SH: per band l = 0 .. order. Sums of R's diagonal in that basis.
   std::vector<double> dof_per_level;
   std::vector<int> coefficients_per_level;  // how many coefficients each entry sums over
+  // Haar: per texel of the n×n octahedral map (row-major), the share of its curvature in the lighting
+  // step's objective that the photos provide, H_kk / (H + priors)_kk, mean over the channels: near 1 where
+  // observations receive light from the texel's directions, 0 where only the priors set its value.
+  // Empty for SH.
+  std::vector<float> data_share;
 };
 std::vector<MapResolution> LightingResolution(const TransportStore& transport, const ObservationSet& observations,
                                               const std::vector<std::vector<uint32_t>>& subset,

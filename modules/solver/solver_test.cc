@@ -685,6 +685,52 @@ TEST_F(SolverTest, LightingResolutionCountsWhatThePhotosDetermine) {
   EXPECT_LT(dof[1], dof[2]);
 }
 
+// Only vertices whose normals point up (z > 0.5) are observed: no observation receives light from
+// directions below z = -0.9 (n·ω < 0 for every such normal), so the priors alone set those texels, while
+// the photos see the zenith.
+TEST_F(SolverTest, DataShareTellsDirectionsThePhotosSeeFromThoseThePriorsFill) {
+  SyntheticProblemOptions po;
+  po.basis = {"lambertian"};
+  po.env_resolution = kEnv;
+  po.materials = 1;
+  po.coefficients = {{0.7, 0.7, 0.7}};
+  Scene s = MakeSyntheticProblem(po);
+  ObservationSet up;
+  up.num_photos = s.problem.observations.num_photos;
+  up.num_vertices = s.problem.observations.num_vertices;
+  for (const Observation& ob : s.problem.observations.records)
+    if (s.problem.mesh.normals[ob.vertex].z() > 0.5f) up.records.push_back(ob);
+  ASSERT_GT(up.records.size(), 100u);
+  s.problem.observations = up;
+  InverseOptions o = BaseOptions(po.basis);
+  o.fixed_reflectance = true;
+  o.holdout_fraction = 0;
+  o.map_resolution = "on";
+  const InverseResult r = SolveInverse(s.problem, o, &s.truth);
+  ASSERT_FALSE(r.summary.map_resolution.empty());
+  for (const MapResolution& m : r.summary.map_resolution) {
+    ASSERT_EQ(m.data_share.size(), size_t(kEnv * kEnv));
+    double below = 0, above = 0;
+    int n_below = 0, n_above = 0;
+    for (int k = 0; k < kEnv * kEnv; ++k) {
+      EXPECT_GE(m.data_share[k], 0.0f);
+      EXPECT_LE(m.data_share[k], 1.0f + 1e-5f);
+      const Eigen::Vector3d d = OctTexelDirection(k % kEnv, k / kEnv, kEnv);
+      if (d.z() < -0.9) {
+        below += m.data_share[k];
+        ++n_below;
+      } else if (d.z() > 0.9) {
+        above += m.data_share[k];
+        ++n_above;
+      }
+    }
+    ASSERT_GT(n_below, 0);
+    ASSERT_GT(n_above, 0);
+    EXPECT_LT(below / n_below, 0.01) << "below: the priors' alone";
+    EXPECT_GT(above / n_above, 0.5) << "the zenith: the photos'";
+  }
+}
+
 TEST_F(SolverTest, HaarBeatsSecondOrderShOnASunnyGlossyScene) {
   const std::vector<std::string> basis = {"lambertian", "phong:50"};
   const Scene s = MakeScene(basis, true);
