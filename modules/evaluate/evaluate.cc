@@ -448,13 +448,19 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
           const Image est = frame.IsIdentity() ? oct : recovered_truth_frame.ToOctahedral(n);
           const Image tru = truth.ToOctahedral(n);
           const EnvMapComparison c = CompareEnvMaps(est, tru, upper);
-          const Eigen::Vector3d dir_est = BrightestLobeDirection(est);
+          Eigen::Vector3d dir_est = BrightestLobeDirection(est);
           const Json& env = it->second.contains("environment") ? it->second.at("environment") : Json::object();
           const bool sky = env.value("source", "") == "sky" && env.contains("sun_dir_world");
           Eigen::Vector3d dir_true = BrightestLobeDirection(tru);
+          // Under a sun sky the estimate is the sun of the daylight model the inverse stage fitted, if it did.
+          const bool fitted_sun = sky && p.contains("sun");
           if (sky) {
             const auto s = env.at("sun_dir_world").get<std::vector<double>>();
             dir_true = Eigen::Vector3d(s[0], s[1], s[2]);
+            if (fitted_sun) {
+              const auto e = p.at("sun").at("direction_world").get<std::vector<double>>();
+              dir_est = frame.rotation() * Eigen::Vector3d(e[0], e[1], e[2]);
+            }
           }
           const double angle = AngleDeg(dir_est, dir_true);
           rel.push_back(c.relative_error);
@@ -465,6 +471,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
                           {"scale", Vec(c.scale)},
                           {"light_dir_error_deg", angle},
                           {"truth_direction_from", sky ? "sun" : "brightest lobe of the true map"},
+                          {"direction_from", fitted_sun ? "fitted sun" : "brightest lobe"},
                           {"direction_world", Vec(dir_est)},
                           {"true_direction_world", Vec(dir_true)}});
           // Figures in the truth's frame, the recovered map scaled to the truth, one exposure.

@@ -484,6 +484,14 @@ class ReportBuilder {
                        name + ": seen by the photos (white) or filled by the priors (black)", oct_w, "pixelated") +
                    "<br>" + cell;
           }
+          if (it->second.contains("sun")) {  // the fitted daylight model's sun (solver/natural_light.h)
+            const Json& sun = it->second["sun"];
+            const std::vector<double> d = sun.value("direction_world", std::vector<double>{0, 0, 1});
+            const double azimuth = std::atan2(d[1], d[0]) * 180.0 / M_PI;
+            cell += "<br>sun " + html::Number(Num(sun, "elevation_deg"), 0) + "&deg; high, azimuth " +
+                    html::Number(azimuth < 0 ? azimuth + 360 : azimuth, 0) + "&deg; from +X, " +
+                    html::Number(100 * Num(sun, "irradiance_share"), 0) + "% of the light on the ground";
+          }
           row.push_back(cell);
         }
       }

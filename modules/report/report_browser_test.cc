@@ -5,6 +5,7 @@
 // and the numbers of metrics.json are in the ranges this scene gives.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -172,9 +173,21 @@ TEST(ReportBrowser, TinySyntheticChainPageLoadsInHeadlessChromium) {
     EXPECT_LT(p["data_share_mean"].get<double>(), 1.0);
     const std::string stem = fs::path(p["determined_map"].get<std::string>()).filename().string();
     EXPECT_TRUE(fs::is_regular_file(dir / ("ws/report/images/inverse/" + stem))) << stem;
+    // The fitted daylight model's sun: a unit direction above the horizon, its elevation, its share.
+    ASSERT_TRUE(p.contains("sun")) << p.dump();
+    const std::vector<double> sun = p["sun"]["direction_world"].get<std::vector<double>>();
+    ASSERT_EQ(sun.size(), 3u);
+    EXPECT_NEAR(std::hypot(sun[0], sun[1], sun[2]), 1.0, 1e-9);
+    EXPECT_GE(sun[2], 0.0);
+    EXPECT_NEAR(p["sun"]["elevation_deg"].get<double>(), std::asin(sun[2]) * 180 / M_PI, 1e-9);
+    EXPECT_GE(p["sun"]["irradiance_share"].get<double>(), 0.0);
+    EXPECT_LE(p["sun"]["irradiance_share"].get<double>(), 1.0);
   }
-  EXPECT_TRUE(std::regex_search(source, match, std::regex("<br>[0-9]+ of 256(, detail to [0-9]+&deg;|, the mean only)</td>")))
-      << "the env-map table's 'determined by the photos' column";
+  EXPECT_TRUE(std::regex_search(
+      source, match,
+      std::regex("<br>[0-9]+ of 256(, detail to [0-9]+&deg;|, the mean only)<br>sun [0-9]+&deg; high, azimuth "
+                 "[0-9]+&deg; from \\+X, [0-9]+% of the light on the ground</td>")))
+      << "the env-map table's 'determined by the photos' column, with the fitted sun";
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.svg"));
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.csv"));
   // Accuracy against time: every start's iterations at increasing wall clock, then the kept iterate, which

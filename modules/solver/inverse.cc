@@ -16,6 +16,7 @@
 #include "image/color.h"
 #include "image/image.h"
 #include "solver/lighting.h"
+#include "solver/natural_light.h"
 #include "solver/lobe_spec.h"
 #include "solver/reflectance.h"
 #include "sphere/envmap.h"
@@ -836,6 +837,18 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
         WriteImage(JoinPath(output_dir, png), share);
         entry["determined_map"] = png;
         entry["data_share_mean"] = mean;
+        // The daylight model fitted to what the photos determine: the sun's direction to sub-texel precision.
+        std::array<std::vector<double>, 3> rgb;
+        for (int c = 0; c < 3; ++c) {
+          rgb[c].resize(m.data_share.size());
+          for (size_t k = 0; k < rgb[c].size(); ++k) rgb[c][k] = oct.pixels[k * 3 + c];
+        }
+        const NaturalLight sky = FitNaturalLight({rgb[0].data(), rgb[1].data(), rgb[2].data()},
+                                                 std::vector<double>(m.data_share.begin(), m.data_share.end()), n_out);
+        const Eigen::Vector3d& sun = sky.sun_dir_world;
+        entry["sun"] = {{"direction_world", {sun.x(), sun.y(), sun.z()}},
+                        {"elevation_deg", std::asin(std::clamp(sun.z(), -1.0, 1.0)) * 180.0 / M_PI},
+                        {"irradiance_share", sky.sun_irradiance_share}};
       }
       determined.push_back(m.dof);
       if (detail > 0) resolved_detail.push_back(detail);

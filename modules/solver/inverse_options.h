@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 13};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 14};
 
 struct InverseOptions {
   // Lighting representation.
@@ -36,6 +36,7 @@ struct InverseOptions {
 
   // Lighting step.
   double smoothness = 1e-4;             // Laplacian weight relative to the system's largest diagonal value
+  std::string light_prior = "natural";  // what fills unseen directions (haar): natural (a daylight model) or smooth
   double wavelet_sparsity = 0.003;      // group-L1 weight of the maps' Haar coefficients (relative; 0: off)
   double wavelet_sparsity_floor = 0.01; // IRLS floor of a coefficient's magnitude, relative to the map's mean
   int irls_iterations = 2;              // reweighting passes per lighting step (restarted every step)
@@ -138,6 +139,13 @@ struct InverseOptions {
            "Laplacian smoothness of environment maps, relative to the largest diagonal value of the system "
            "(seed: 0.01%).")
         .Range(0, 1);
+    t->Add("light_prior", &light_prior,
+           "Haar: what the smoothness prior pulls each environment map towards where the photos say little. "
+           "natural: a daylight model (sky brighter overhead or at the horizon, a sun and its aureole, a uniform "
+           "ground lit by them) fitted in every lighting step to the directions the photos do determine; "
+           "smooth: a flat fill (the seed's Laplacian alone). Choose smooth for indoor or artificial light, "
+           "where sky and ground do not apply. The SH baseline always uses its own band-limited smoothness.")
+        .Choices({"natural", "smooth"});
     t->Add("wavelet_sparsity", &wavelet_sparsity,
            "Haar: a sparsity prior on every environment map's wavelet coefficients, the group L1 norm over each "
            "coefficient's RGB magnitude (the mean is free), weighted by this times the largest diagonal value of the "

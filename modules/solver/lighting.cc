@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/timer.h"
+#include "solver/natural_light.h"
 #include "solver/qp.h"
 #include "sphere/octahedral.h"
 #include "sphere/sh.h"
@@ -198,6 +199,10 @@ PhotoSystem AssemblePhotoSystem(const TransportStore& transport, const Observati
   return sys;
 }
 
+// The natural-light prior's pull of every texel towards the daylight model, relative to the Laplacian's
+// weight (whose Gram has about 20 on its diagonal): weak beside any observation, decisive where there is none.
+constexpr double kNaturalLightPull = 1.0;
+
 // The smoothness prior per unit weight: the octahedral Laplacian's Gram (Haar)
 // or the diagonal (l(l+1))² over SH bands.
 Eigen::MatrixXd SmoothnessRegularizer(const LightingState& lighting, int n) {
@@ -285,11 +290,38 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
           }
         }
       }
+      // The data term's diagonal per channel (every row, bounds included): λ from its largest value,
+      // so λ does not move with the active set, and the natural-light prior's texel weights.
+      std::array<Eigen::VectorXd, 3> diagonal;
+      for (int c = 0; c < 3; ++c) {
+        diagonal[c] = Eigen::VectorXd::Zero(dim);
+        for (Eigen::Index r = 0; r < rows; ++r)
+          diagonal[c] += (alpha[r] * robust[r]) * a[c].row(r).cast<double>().cwiseAbs2().transpose();
+      }
+      // The natural-light prior: the priors act on the map's departure from a daylight model fitted to what
+      // the photos determine of the current map (each texel weighted by the photos' share of its curvature),
+      // and a weak pull towards the model fills the directions no observation sees with its sky and ground.
+      const bool natural = haar && options.light_prior == "natural";
+      std::array<Eigen::VectorXd, 3> model_map;
+      if (natural) {
+        std::vector<double> share(dim, 0.0);
+        for (int c = 0; c < 3; ++c) {
+          const double lambda_c = options.smoothness * std::max(1e-30, diagonal[c].maxCoeff());
+          for (int k = 0; k < dim; ++k)
+            share[k] += diagonal[c][k] / (diagonal[c][k] + lambda_c * regularizer(k, k)) / 3.0;
+        }
+        const NaturalLight model = FitNaturalLight({start[0].data(), start[1].data(), start[2].data()}, share, n);
+        std::array<std::vector<double>, 3> m = model.Octahedral(n);
+        for (int c = 0; c < 3; ++c) model_map[c] = Eigen::Map<const Eigen::VectorXd>(m[c].data(), dim);
+      }
       // Group-sparse Haar prior, reweighted from the warm start (IRLS on the L1 norm).
       Eigen::MatrixXd sparsity_penalty;
       if (haar && options.wavelet_sparsity > 0) {
         std::array<std::vector<float>, 3> maps;
-        for (int c = 0; c < 3; ++c) maps[c].assign(start[c].data(), start[c].data() + dim);
+        for (int c = 0; c < 3; ++c) {
+          maps[c].resize(dim);
+          for (int k = 0; k < dim; ++k) maps[c][k] = static_cast<float>(start[c][k] - (natural ? model_map[c][k] : 0.0));
+        }
         sparsity_penalty =
             HaarL1Penalty({maps[0].data(), maps[1].data(), maps[2].data()}, n, options.wavelet_sparsity_floor);
       }
@@ -298,12 +330,15 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         Eigen::MatrixXd q_exact;
         Eigen::VectorXd rhs_exact;
         accumulate(c, exact_rows[c], &q_exact, &rhs_exact);
-        // λ from the whole system (every row), so it does not move with the active set.
-        Eigen::VectorXd diagonal = q_exact.diagonal();
-        for (Eigen::Index r : bound_rows[c])
-          diagonal += (alpha[r] * robust[r]) * a[c].row(r).cast<double>().cwiseAbs2().transpose();
-        const double diagonal_max = std::max(1e-30, diagonal.maxCoeff());
+        const double diagonal_max = std::max(1e-30, diagonal[c].maxCoeff());
         const double lambda = options.smoothness * diagonal_max;
+        const double model_pull = natural ? kNaturalLightPull * lambda : 0.0;
+        if (natural) {
+          Eigen::VectorXd prior_rhs = lambda * (regularizer * model_map[c]) + model_pull * model_map[c];
+          if (sparsity_penalty.size() > 0)
+            prior_rhs += (options.wavelet_sparsity * diagonal_max) * (sparsity_penalty * model_map[c]);
+          rhs_exact += prior_rhs;
+        }
         // Lower bounds by an active set (semismooth Newton on the censored objective): the bounds the
         // current map misses enter as ordinary rows; re-solve until that set no longer changes.
         std::vector<Eigen::Index> active;
@@ -326,6 +361,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
             rhs += rhs_active;
           }
           q_mat += lambda * regularizer;
+          if (model_pull > 0) q_mat.diagonal().array() += model_pull;
           if (sparsity_penalty.size() > 0) q_mat += (options.wavelet_sparsity * diagonal_max) * sparsity_penalty;
           // A vanishing ridge keeps texels no observation sees well-posed (they stay at the smooth fill-in).
           q_mat.diagonal().array() += 1e-9 * diagonal_max;

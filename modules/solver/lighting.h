@@ -6,6 +6,11 @@
 // the octahedral grid Laplacian Δ and λ a fraction of the system's largest
 // diagonal value. For the SH baseline L is a coefficient vector, the Laplacian
 // is diagonal (l(l+1)) and non-negativity holds at the octahedral texel centres.
+// With light_prior = natural (Haar) the priors act on the map's departure from a
+// daylight model M fitted to what the photos determine of the current map
+// (solver/natural_light.h; texels weighted by the photos' share of their
+// curvature): λ |Δ(L − M)|² + λ |L − M|² and the wavelet sparsity of L − M, so
+// directions no observation sees take M's sky, sun and ground.
 // A lower bound (kObservationLowerBound: a clipped footprint) contributes the
 // censored max(0, y_o − r_o·L)², by an active set (semismooth Newton): the
 // bounds that the current map misses enter the QP as ordinary rows, and the QP
