@@ -13,11 +13,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "evaluate/envmap_metrics.h"
 #include "evaluate/leave_one_out.h"
 #include "geometry/raycaster.h"
 #include "image/color.h"
@@ -63,10 +65,6 @@ double Agreement(const TriangleMesh& mesh, const RayCaster& caster, const std::v
   return vx > 1e-12 && vy > 1e-12 ? cov / std::sqrt(vx * vy) : 0.0;
 }
 
-double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -78,6 +76,10 @@ int main(int argc, char** argv) {
     InitLogging("sun_shadows", "", LogLevel::kWarning);
     const std::string stages = JoinPath(workspace, "stages");
     const std::string mesh_dir = JoinPath(stages, "mesh"), inverse = JoinPath(stages, "inverse");
+    for (const char* stage : {"mesh", "visibility", "observe", "inverse"})
+      if (!std::filesystem::is_regular_file(JoinPath(JoinPath(stages, stage), "status.json")))
+        RELIGHT_USER_ERROR() << JoinPath(stages, stage) << " has no finished result; run `pipeline run CONFIG "
+                             << "--workspace " << workspace << "` through the inverse stage first";
     const InverseProblem problem =
         LoadInverseProblem(mesh_dir, JoinPath(stages, "visibility"), JoinPath(stages, "observe"));
     const RecoveredModel model = LoadRecoveredModel(inverse, mesh_dir);
