@@ -19,6 +19,7 @@
 #include "core/fs.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "core/stats.h"
 #include "evaluate/envmap_metrics.h"
 #include "evaluate/leave_one_out.h"
 #include "geometry/raycaster.h"
@@ -29,12 +30,6 @@
 
 namespace {
 using namespace relight;
-
-double MedianOf(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 // Pearson correlation, over the photo's vertices, of the direct light a sun in direction `sun` would give
 // (cosine to the normal, 0 when the vertex faces away or a ray towards the sun is blocked) with the log of
@@ -134,7 +129,7 @@ int main(int argc, char** argv) {
                   fitted, rank, best, std::asin(best_dir.z()) * 180 / M_PI, angle);
     }
     std::printf("median angle to the shadows' sun %.1f deg; median rank of the fitted sun %.3f (%zu photos)\n",
-                MedianOf(angles), MedianOf(ranks), angles.size());
+                Median(angles), Median(ranks), angles.size());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "sun_shadows: %s\n", e.what());
     return 1;

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
+#include "core/stats.h"
 #include "image/color.h"
 #include "sphere/octahedral.h"
 
@@ -15,13 +16,6 @@ namespace relight {
 namespace {
 double Lum(const Image& img, int i, int j) {
   return Luminance(img.at(i, j, 0), img.at(i, j, 1), img.at(i, j, 2));
-}
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const double pos = p * (v.size() - 1);
-  const size_t lo = static_cast<size_t>(std::floor(pos)), hi = std::min(v.size() - 1, lo + 1);
-  return v[lo] + (pos - lo) * (v[hi] - v[lo]);
 }
 double Pearson(const std::vector<double>& a, const std::vector<double>& b) {
   const size_t n = a.size();
@@ -100,8 +94,8 @@ LightEvaluation EvaluateDirectionalLights(const std::string& inverse_dir, const 
     e.true_rgb.push_back(it->second->intensity_rgb);
   }
   if (e.photos.empty()) return e;
-  e.median_angle_deg = Percentile(e.angle_error_deg, 0.5);
-  e.p90_angle_deg = Percentile(e.angle_error_deg, 0.9);
+  e.median_angle_deg = Median(e.angle_error_deg);
+  e.p90_angle_deg = PercentileOf(e.angle_error_deg, 90);
   double ab = 0, bb = 0, mean_true = 0;
   for (size_t k = 0; k < e.photos.size(); ++k) {
     ab += e.power_rgb[k].dot(e.true_rgb[k]);

@@ -12,12 +12,14 @@
 #include "core/fs.h"
 #include "core/log.h"
 #include "core/progress.h"
+#include "core/stats.h"
 #include "core/timer.h"
 #include "datasets/diligent.h"
 #include "datasets/light_evaluation.h"
 #include "evaluate/envmap_metrics.h"
 #include "evaluate/image_metrics.h"
 #include "evaluate/leave_one_out.h"
+#include "evaluate/shadow_contrast.h"
 #include "evaluate/surface_distance.h"
 #include "geometry/mesh_io.h"
 #include "geometry/raycaster.h"
@@ -40,12 +42,9 @@ std::string Stem(const std::string& name) { return fs::path(name).stem().string(
 bool IsFile(const std::string& path) { return !path.empty() && fs::is_regular_file(path); }
 OrderedJson Vec(const Eigen::Vector3d& v) { return OrderedJson::array({v.x(), v.y(), v.z()}); }
 
-double Mean(const std::vector<double>& v) {
-  double s = 0;
-  for (double x : v) s += x;
-  return v.empty() ? 0.0 : s / v.size();
-}
-double Median(std::vector<double> v) { return v.empty() ? 0.0 : Percentile(&v, 50); }
+// Shadow contrast is measured only where the view shows at least this many sunlit and shadowed pixels
+// (after the regions' erosion): a ratio over a few dozen pixels is noise.
+constexpr size_t kMinShadowRegionPixels = 100;
 
 // Reads a stage's resolved options from <dir>/config.yaml (written by the orchestrator); false when absent.
 template <typename Options>
@@ -159,9 +158,9 @@ void NotAvailable(OrderedJson* m, const std::string& key, const std::string& rea
 }  // namespace
 
 const std::vector<std::string>& HeadlineMetricKeys() {
-  static const std::vector<std::string> keys = {"relight_psnr_db",  "rerender_psnr_db",    "rerender_rmse",
-                                                "envmap_rel_error", "light_dir_error_deg", "albedo_psnr_db",
-                                                "loo_psnr_db"};
+  static const std::vector<std::string> keys = {
+      "relight_psnr_db",  "shadow_contrast_error", "rerender_psnr_db", "rerender_rmse",
+      "envmap_rel_error", "light_dir_error_deg",   "albedo_psnr_db",   "loo_psnr_db"};
   return keys;
 }
 
@@ -357,7 +356,8 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
       reason = "the ground truth has no relight/index.json";
     else if (in.relight_dir.empty())
       reason = "the relight stage did not run";
-    std::vector<double> psnr, rel;
+    std::vector<double> psnr, rel, contrast_object, contrast_surface;
+    int sun_renders = 0;
     OrderedJson list = OrderedJson::array();
     fig["heldout"] = OrderedJson::array();
     if (reason.empty()) {
@@ -365,6 +365,25 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
       std::map<std::string, const RenderRecord*> by_name;
       for (const auto& r : renders)
         if (r.kind == "heldout") by_name[r.name] = &r;
+      // Shadow contrast under the held-out skies' suns, over regions from the true geometry.
+      std::map<std::string, Eigen::Vector3d> sun_by_envmap;
+      if (index.contains("envmap_details"))
+        for (const auto& d : index.at("envmap_details"))
+          if (d.value("source", "") == "sky" && d.contains("sun_dir_world")) {
+            const auto v = d.at("sun_dir_world").get<std::vector<double>>();
+            sun_by_envmap[d.at("name").get<std::string>()] = Eigen::Vector3d(v[0], v[1], v[2]);
+          }
+      TriangleMesh truth_object, truth_occluders;
+      std::unique_ptr<RayCaster> truth_caster;
+      Reconstruction truth_views;
+      if (!sun_by_envmap.empty() && IsFile(JoinPath(gt, "mesh.ply"))) {
+        truth_object = ReadMesh(JoinPath(gt, "mesh.ply"));
+        if (IsFile(JoinPath(gt, "occluders.ply"))) truth_occluders = ReadMesh(JoinPath(gt, "occluders.ply"));
+        std::vector<const TriangleMesh*> meshes{&truth_object};
+        if (!truth_occluders.empty()) meshes.push_back(&truth_occluders);
+        truth_caster = std::make_unique<RayCaster>(meshes);
+        truth_views = Reconstruction::Read(dir);
+      }
       for (const auto& e : index.at("renders")) {
         const std::string view = e.at("view").get<std::string>(), env = e.at("envmap").get<std::string>();
         const std::string name = view + "__" + env;
@@ -385,17 +404,60 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
         }
         const ImageComparison c = CompareScaleInvariant(ref, est, mask, compare, name);
         j.update(ComparisonJson(c));
+        auto sun = sun_by_envmap.find(env);
+        sun_renders += sun != sun_by_envmap.end();
+        if (sun != sun_by_envmap.end() && truth_caster) {
+          const ImageRecord* pose = nullptr;
+          for (const auto& [id, image] : truth_views.images)
+            if (image.name == view) pose = &image;
+          if (pose && truth_views.cameras.count(pose->camera_id)) {
+            const Camera& camera = truth_views.cameras.at(pose->camera_id);
+            const Image object = ReadMask(JoinPath(dir, e.at("mask").get<std::string>()));
+            const Image covered =
+                it->second->mask.empty() ? Image() : ReadMask(JoinPath(in.relight_dir, it->second->mask));
+            OrderedJson sc;
+            for (const bool object_only : {true, false}) {
+              const Image& region = object_only ? object : covered;
+              if (camera.width != ref.width || camera.height != ref.height ||
+                  (!region.empty() && (region.width != ref.width || region.height != ref.height)))
+                continue;
+              const SunRegions regions = SunAndShadowRegions(*truth_caster, camera, *pose, sun->second, region);
+              const size_t lit_px = CountMask(regions.lit), shadow_px = CountMask(regions.shadow);
+              if (std::min(lit_px, shadow_px) < kMinShadowRegionPixels) {
+                sc[object_only ? "object" : "surface"] = {
+                    {"lit_pixels", lit_px},
+                    {"shadow_pixels", shadow_px},
+                    {"reason", "fewer than " + std::to_string(kMinShadowRegionPixels) + " sunlit or shadowed pixels"}};
+                continue;
+              }
+              const ShadowContrast s = MeasureShadowContrast(ref, est, regions, name);
+              sc[object_only ? "object" : "surface"] = {{"lit_pixels", s.lit_pixels},
+                                                        {"shadow_pixels", s.shadow_pixels},
+                                                        {"reference_ratio", s.reference_ratio},
+                                                        {"relit_ratio", s.estimate_ratio},
+                                                        {"relative_error", s.relative_error}};
+              (object_only ? contrast_object : contrast_surface).push_back(s.relative_error);
+            }
+            if (!sc.empty()) j["shadow_contrast"] = sc;
+          }
+        }
         list.push_back(j);
         psnr.push_back(c.psnr_db);
         rel.push_back(c.relative_rmse);
         const std::string base = "figures/heldout/" + name;
         WriteComparisonFigures(ref, est, mask, c, o, JoinPath(output_dir, base + "_reference.png"),
                                JoinPath(output_dir, base + "_relit.png"), JoinPath(output_dir, base + "_error.png"));
-        fig["heldout"].push_back({{"name", name},
-                                  {"reference", base + "_reference.png"},
-                                  {"relit", base + "_relit.png"},
-                                  {"error", base + "_error.png"},
-                                  {"psnr_db", c.psnr_db}});
+        OrderedJson f = {{"name", name},
+                         {"reference", base + "_reference.png"},
+                         {"relit", base + "_relit.png"},
+                         {"error", base + "_error.png"},
+                         {"psnr_db", c.psnr_db}};
+        if (j.contains("shadow_contrast") && j["shadow_contrast"].contains("surface") &&
+            j["shadow_contrast"]["surface"].contains("reference_ratio")) {
+          f["shadow_ratio_reference"] = j["shadow_contrast"]["surface"]["reference_ratio"];
+          f["shadow_ratio_relit"] = j["shadow_contrast"]["surface"]["relit_ratio"];
+        }
+        fig["heldout"].push_back(f);
       }
       if (psnr.empty())
         reason =
@@ -409,6 +471,20 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
       m["relight_psnr_db"] = Mean(psnr);
       m["heldout"]["relative_rmse"] = Mean(rel);
     }
+    auto mean_abs = [](const std::vector<double>& v) {
+      double s = 0;
+      for (double x : v) s += std::abs(x);
+      return s / v.size();
+    };
+    if (!contrast_object.empty()) m["heldout"]["shadow_contrast_error_object"] = mean_abs(contrast_object);
+    if (!contrast_surface.empty())
+      m["shadow_contrast_error"] = mean_abs(contrast_surface);
+    else
+      NotAvailable(&m, "shadow_contrast_error",
+                   !reason.empty()    ? reason
+                   : sun_renders == 0 ? "no held-out map is a sky with a known sun"
+                                      : "no held-out view under a sun shows " + std::to_string(kMinShadowRegionPixels) +
+                                            " sunlit and shadowed pixels of the model");
   }
 
   // --- Environment maps: recovered against true, and brightest directions.

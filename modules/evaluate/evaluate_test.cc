@@ -19,8 +19,10 @@
 #include "evaluate/envmap_metrics.h"
 #include "evaluate/image_metrics.h"
 #include "evaluate/leave_one_out.h"
+#include "evaluate/shadow_contrast.h"
 #include "evaluate/surface_distance.h"
 #include "geometry/mesh_io.h"
+#include "geometry/primitives.h"
 #include "geometry/reconstruction.h"
 #include "relight/display.h"
 #include "relight/ground_truth_frame.h"
@@ -183,6 +185,101 @@ TEST(SurfaceDistance, ConcentricSpheresAreATenthApart) {
   EXPECT_NEAR(d.chamfer, 0.1, 1e-3);
   EXPECT_NEAR(d.diagonal, 2 * std::sqrt(3.0), 1e-3);
   // Closest points and their interpolation: geometry/mesh_distance_test.cc.
+}
+
+// A box standing on a plane under a sun: each pixel's region against the closed form (the camera ray's
+// first hit by slab and plane tests, its normal, and a slab test from the hit towards the sun).
+TEST(ShadowContrast, RegionsOfABoxOnAPlaneMatchTheClosedForm) {
+  const Eigen::Vector3f lo(-0.3f, -0.3f, 0.0f), hi(0.3f, 0.3f, 0.6f);
+  TriangleMesh box = MakeBox(lo, hi);
+  box.normals.clear();  // flat faces: the shading normal is the face's
+  const TriangleMesh ground = MakeGrid(-3, 3, -3, 3, 0, 6, 6);
+  const RayCaster caster({&box, &ground});
+  const Camera camera = Camera::Pinhole(1, 160, 120, 150, 150, 80, 60);
+  ImageRecord pose;
+  const Eigen::Vector3d centre(1.2, -2.2, 2.0);
+  pose.SetPose(LookAtCamFromWorld(centre, Eigen::Vector3d(0, 0.4, 0.2)), centre);
+  const Eigen::Vector3d sun = Eigen::Vector3d(-1.0, 0.8, 1.1).normalized();
+  const SunRegions regions = SunAndShadowRegions(caster, camera, pose, sun, Image(), 2, 0.2);
+
+  // Slab test of the ray o + t d against the box: entry distance and the entry face's normal.
+  auto slab = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& d, double* t_hit, Eigen::Vector3d* n) {
+    double t0 = 1e-9, t1 = 1e30;
+    int axis = -1;
+    double sign = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double lo_a = lo[a], hi_a = hi[a];
+      if (std::abs(d[a]) < 1e-12) {
+        if (o[a] < lo_a || o[a] > hi_a) return false;
+        continue;
+      }
+      double ta = (lo_a - o[a]) / d[a], tb = (hi_a - o[a]) / d[a];
+      double s = -1;
+      if (ta > tb) std::swap(ta, tb), s = 1;
+      if (ta > t0) t0 = ta, axis = a, sign = s;
+      t1 = std::min(t1, tb);
+      if (t0 > t1) return false;
+    }
+    if (t_hit) *t_hit = t0;
+    if (n && axis >= 0) *n = Eigen::Vector3d::Unit(axis) * sign;
+    return true;
+  };
+  const Eigen::Matrix3d world_from_cam = pose.CamFromWorldRotation().transpose();
+  size_t lit_true = 0, shadow_true = 0, lit_agree = 0, shadow_agree = 0, lit_wrong = 0, shadow_wrong = 0;
+  for (int y = 0; y < camera.height; ++y)
+    for (int x = 0; x < camera.width; ++x) {
+      const Eigen::Vector3d d = world_from_cam * Eigen::Vector3d((x + 0.5 - 80) / 150, (y + 0.5 - 60) / 150, 1);
+      double t = 0;
+      Eigen::Vector3d n(0, 0, 1), p;
+      if (slab(centre, d, &t, &n)) {
+        p = centre + t * d;
+      } else {
+        if (d.z() >= 0) continue;
+        p = centre + (-centre.z() / d.z()) * d;
+        if (p.head<2>().cwiseAbs().maxCoeff() > 3) continue;
+      }
+      const double cos_sun = n.dot(sun);
+      bool is_lit = false;
+      if (cos_sun > 0) {
+        if (cos_sun < 0.2) continue;
+        is_lit = !slab(p + 1e-6 * n, sun, nullptr, nullptr);
+      }
+      (is_lit ? lit_true : shadow_true)++;
+      const bool in_lit = regions.lit.at(x, y) > 0.5f, in_shadow = regions.shadow.at(x, y) > 0.5f;
+      lit_agree += is_lit && in_lit;
+      shadow_agree += !is_lit && in_shadow;
+      lit_wrong += !is_lit && in_lit;
+      shadow_wrong += is_lit && in_shadow;
+    }
+  ASSERT_GT(shadow_true, 1000u);  // the view shows the box's cast and attached shadows
+  ASSERT_GT(lit_true, 5000u);
+  // Erosion by 2 px keeps every region pixel away from the edges: none on the wrong side.
+  EXPECT_EQ(lit_wrong, 0u);
+  EXPECT_EQ(shadow_wrong, 0u);
+  // ... and most of each region's inside.
+  EXPECT_GT(double(lit_agree) / lit_true, 0.85);
+  EXPECT_GT(double(shadow_agree) / shadow_true, 0.6);
+
+  // Ratios: reference lit 2.0 and shadow 0.5 (ratio 4); the estimate at a tenth of the scale with its
+  // shadows lifted to 0.1 (lit 0.2: ratio 2, relative error -0.5); both grey so luminance = value.
+  Image reference(160, 120, 3, 1.0f), estimate(160, 120, 3, 1.0f);
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const bool lit = regions.lit.at(x, y) > 0.5f, shadow = regions.shadow.at(x, y) > 0.5f;
+        reference.at(x, y, c) = lit ? 2.0f : shadow ? 0.5f : 7.0f;
+        estimate.at(x, y, c) = lit ? 0.2f : shadow ? 0.1f : 0.0f;
+      }
+  const ShadowContrast c = MeasureShadowContrast(reference, estimate, regions, "box");
+  EXPECT_NEAR(c.reference_ratio, 4.0, 1e-5);
+  EXPECT_NEAR(c.estimate_ratio, 2.0, 1e-5);
+  EXPECT_NEAR(c.relative_error, -0.5, 1e-5);
+  // A black shadow has no ratio: a clear error, not infinity.
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x)
+      if (regions.shadow.at(x, y) > 0.5f)
+        for (int c = 0; c < 3; ++c) estimate.at(x, y, c) = 0;
+  EXPECT_THROW(MeasureShadowContrast(reference, estimate, regions, "box"), UserError);
 }
 
 TEST(LeaveOneOut, RestrictAndSpread) {

@@ -7,21 +7,9 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/stats.h"
 
 namespace relight {
-
-double Percentile(std::vector<double>* v, double p) {
-  RELIGHT_CHECK(!v->empty());
-  const double pos = std::clamp(p, 0.0, 100.0) / 100.0 * (v->size() - 1);
-  const size_t k = static_cast<size_t>(std::floor(pos));
-  std::nth_element(v->begin(), v->begin() + k, v->end());
-  double value = (*v)[k];
-  if (k + 1 < v->size() && pos > k) {
-    const double next = *std::min_element(v->begin() + k + 1, v->end());
-    value += (pos - k) * (next - value);
-  }
-  return value;
-}
 
 ImageComparison CompareScaleInvariant(const Image& ref, const Image& est, const Image& mask,
                                       const ImageCompareOptions& o, const std::string& what) {

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "core/stats.h"  // Percentile
 #include "image/image.h"
 
 namespace relight {
@@ -47,8 +48,5 @@ Image RelativeErrorImage(const Image& reference, const Image& estimate, const Ei
 
 // `image` with channel c multiplied by scale[c].
 Image ScaleChannels(const Image& image, const Eigen::Vector3d& scale);
-
-// The p-th percentile (0-100, linear interpolation) of `values` (reordered).
-double Percentile(std::vector<double>* values, double p);
 
 }  // namespace relight

@@ -3,17 +3,12 @@
 #include <Eigen/Geometry>
 #include <utility>
 
+#include "core/stats.h"
 #include "evaluate/image_metrics.h"
 #include "geometry/surface_sampling.h"
 
 namespace relight {
 namespace {
-
-double Mean(const std::vector<double>& values) {
-  double sum = 0;
-  for (double v : values) sum += v;
-  return values.empty() ? 0.0 : sum / values.size();
-}
 
 // The faces of `a` and `b` as one mesh (no vertex properties): its distance is the nearer of the two.
 TriangleMesh Surfaces(const TriangleMesh& a, const TriangleMesh& b) {

@@ -7,15 +7,11 @@
 #include <random>
 
 #include "core/error.h"
+#include "core/stats.h"
 
 namespace relight {
 namespace {
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 }  // namespace
 

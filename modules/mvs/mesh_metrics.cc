@@ -10,6 +10,7 @@
 #include <map>
 
 #include "core/error.h"
+#include "core/stats.h"
 
 namespace relight {
 namespace {
@@ -60,13 +61,6 @@ double FractionWithin(const std::vector<double>& distances, double threshold) {
   if (distances.empty()) return 0.0;
   return double(std::count_if(distances.begin(), distances.end(), [&](double d) { return d <= threshold; })) /
          distances.size();
-}
-
-double Mean(const std::vector<double>& values) {
-  if (values.empty()) return 0.0;
-  double sum = 0;
-  for (double v : values) sum += v;
-  return sum / values.size();
 }
 
 ChamferDistance MeshChamfer(const TriangleMesh& a, const TriangleMesh& b, size_t samples, uint64_t seed) {

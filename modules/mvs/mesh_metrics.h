@@ -32,7 +32,6 @@ std::vector<double> DistancesToPoints(const std::vector<Eigen::Vector3f>& querie
                                       const std::vector<Eigen::Vector3f>& points);
 // Fraction of `distances` at most `threshold`.
 double FractionWithin(const std::vector<double>& distances, double threshold);
-double Mean(const std::vector<double>& values);
 
 // Symmetric Chamfer distance between meshes `a` and `b` from `samples` surface samples each.
 struct ChamferDistance {

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/fs.h"
+#include "core/stats.h"
 #include "geometry/align.h"
 #include "geometry/mesh_io.h"
 #include "geometry/reconstruction.h"
@@ -31,11 +32,6 @@ Eigen::Vector3f ApplySim(const Sim3& sim, const Eigen::Vector3f& p) {
 
 bool InBox(const Eigen::AlignedBox3f& box, const Eigen::Vector3f& p) { return box.contains(p); }
 
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
 
 }  // namespace
 

@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/log.h"
+#include "core/stats.h"
 #include "geometry/mesh_io.h"
 #include "mvs/colmap_mat.h"
 #include "mvs/colmap_tools.h"

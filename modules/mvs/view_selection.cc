@@ -11,15 +11,10 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/error.h"
+#include "core/stats.h"
 
 namespace relight {
 namespace {
-
-double Percentile(std::vector<double> values, double fraction) {
-  const size_t k = std::min(values.size() - 1, static_cast<size_t>(fraction * (values.size() - 1) + 0.5));
-  std::nth_element(values.begin(), values.begin() + k, values.end());
-  return values[k];
-}
 
 constexpr double kPreferredAngleDeg = 15.0;  // pose-only fallback: best triangulation angle at the scene centre
 constexpr double kDepthFactor = 3.0;         // pose-only fallback: depth range within centre depth ÷/× this ...
@@ -254,7 +249,7 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
       plan.sources.push_back(s);
       plan.shared_points.push_back(static_cast<int>(angles[r][s].size()));
       plan.shared_score.push_back(score);
-      plan.median_angle_deg.push_back(Percentile(angles[r][s], 0.5));
+      plan.median_angle_deg.push_back(Median(angles[r][s]));
     }
     // Too few sources share points with it (few features under a light of its own): the cost's best views and
     // the filter's consistent views need more, so views that see the scene centre from a good angle join them.
@@ -281,8 +276,8 @@ std::vector<ViewSelection> SelectViews(const Reconstruction& model, const std::v
     }
     plan.num_points = static_cast<int>(depths.size());
     if (!depths.empty()) {
-      plan.depth_min = Percentile(depths, 0.01) * (1.0 - options.depth_margin);
-      plan.depth_max = Percentile(depths, 0.99) * (1.0 + options.depth_margin);
+      plan.depth_min = PercentileOf(depths, 1) * (1.0 - options.depth_margin);
+      plan.depth_max = PercentileOf(depths, 99) * (1.0 + options.depth_margin);
       plan.depth_min = std::max(plan.depth_min, 1e-3 * plan.depth_max);
     }
     if (plan.sources.empty()) {

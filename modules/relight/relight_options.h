@@ -13,7 +13,7 @@
 namespace relight {
 
 inline const StageInfo kRelightStage{
-    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 6};
+    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 7};
 
 struct RelightOptions {
   // What to render.
@@ -101,9 +101,10 @@ struct RelightOptions {
     t->Add("renderer", &renderer,
            "transport: each vertex's radiance from its visibility map, BRDF and the light filtered to the recovered "
            "maps' resolution (the inverse stage's own forward model), interpolated across triangles: noise-free "
-           "and fast. monte_carlo: the path-traced reference, per pixel with the full-resolution light; choose it "
-           "for lights sharper than the recovered maps (a small sun's crisp shadows and highlights) or meshes "
-           "coarser than the image's pixels. The sampling options below apply to monte_carlo only.")
+           "and fast; a map's sun is split out and traced as a directional light, so its shadows stay sharp. "
+           "monte_carlo: the path-traced reference, per pixel with the full-resolution light; choose it for "
+           "other sharp light (several bright lamps, a window's edge) or meshes coarser than the image's pixels. "
+           "The sampling options below apply to monte_carlo only.")
         .Choices({"transport", "monte_carlo"});
     t->Add("pixel_samples_per_axis", &pixel_samples_per_axis,
            "Antialiasing: a k x k grid of camera rays per pixel (jittered with monte_carlo).")

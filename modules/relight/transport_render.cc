@@ -7,7 +7,9 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "core/timer.h"
+#include "render/sun_light.h"
 #include "solver/transport.h"
 #include "sphere/frame.h"
 #include "sphere/octahedral.h"
@@ -40,8 +42,8 @@ struct TransportRenderer::TexelTable {
   }
 };
 
-// Half the resolution of a visibility map, for the glossy lobes' adaptive quadrature: texel (i, j) holds the four visibility
-// texels it covers (the hemi-octahedral parametrisation nests), its direction and solid angle.
+// Half the resolution of a visibility map, for the glossy lobes' adaptive quadrature: texel (i, j) holds the four
+// visibility texels it covers (the hemi-octahedral parametrisation nests), its direction and solid angle.
 struct TransportRenderer::CoarseTable {
   int resolution = 0;
   std::vector<Eigen::Vector3f> dir_local;
@@ -95,7 +97,7 @@ struct TransportRenderer::SurfaceState {
     const BrdfLobe* lobe = nullptr;
     bool lambertian = false, phong = false;
     float half_cutoff = -2, mirror_cutoff = -2;  // texels beyond them are skipped (solver/transport.h)
-    float f0 = 0;                                 // microfacet Fresnel at normal incidence
+    float f0 = 0;                                // microfacet Fresnel at normal incidence
     // Directions where the lobe is above 1 % of its peak, widened by a coarse texel: cosine of the angle to the
     // normal (half vector) or to the mirror direction (Phong) below which the coarse quadrature suffices
     // (2: everywhere, for a wide lobe).
@@ -208,10 +210,11 @@ struct TransportRenderer::LightState {
   const Lighting* lighting = nullptr;
   bool has_env = false;
   PaddedOct light;
-  std::array<std::vector<float>, 3> haar;  // per channel: the Haar coefficients of the filtered map
-  std::vector<std::vector<Eigen::Vector3f>> diffuse;    // [surface][vertex]
-  std::vector<std::vector<uint8_t>> diffuse_done;       // [surface][vertex]
-  std::vector<std::vector<uint8_t>> delta_unblocked;    // [surface][vertex * num_delta + k]: 0 unknown, 1 lit, 2 blocked
+  std::array<std::vector<float>, 3> haar;             // per channel: the Haar coefficients of the filtered map
+  std::vector<std::vector<Eigen::Vector3f>> diffuse;  // [surface][vertex]
+  std::vector<std::vector<uint8_t>> diffuse_done;     // [surface][vertex]
+  std::vector<std::vector<uint8_t>> delta_unblocked;  // [surface][vertex * num_delta + k]: 0 unknown, 1 lit, 2 blocked
+  std::vector<DirectionalLight> suns;                 // split out of the environment (render/sun_light.h)
   size_t num_delta = 0;
 };
 
@@ -273,8 +276,8 @@ TransportRenderer::TransportRenderer(const Scene& scene, const VisibilityData& o
         info.core_cos = static_cast<float>(std::cos(std::min(core, M_PI)));
         // A lobe at least three coarse texels wide (half-width in incident directions: about twice the half
         // vector's for microfacets, where a Phong lobe halves) is resolved by the coarse texels everywhere.
-        const double half_width = info.phong ? std::acos(std::pow(0.5, 1.0 / lobe.exponent))
-                                             : 2 * std::atan(lobe.roughness);
+        const double half_width =
+            info.phong ? std::acos(std::pow(0.5, 1.0 / lobe.exponent)) : 2 * std::atan(lobe.roughness);
         if (half_width >= 3 * margin) info.core_cos = 2;
       }
       state->lobes.push_back(info);
@@ -304,7 +307,17 @@ TransportRenderer::LightState& TransportRenderer::Prepare(const Lighting& lighti
   state->lighting = &lighting;
   if (lighting.env && !lighting.env->empty()) {
     state->has_env = true;
-    const EnvMap& env = *lighting.env;
+    // A sun sharper than a texel of the filtered map is taken out and traced as a delta light.
+    SunSplit split = SplitSun(*lighting.env, 0.5 * std::sqrt(4 * M_PI) / n);
+    if (split.found) {
+      state->suns.push_back(split.sun);
+      const Eigen::Vector3d& d = split.sun.dir_world;
+      RLOG_DEBUG(
+          "transport renderer: a sun split out of the light as a delta light ({:.0f}% of its light, {:.1f} deg "
+          "above the horizon)",
+          100 * split.share, std::asin(std::clamp(d.z(), -1.0, 1.0)) * 180 / M_PI);
+    }
+    const EnvMap& env = split.found ? split.residual : *lighting.env;
     Image oct;
     // A recovered map at the model's resolution is the model's own light: its texels, unfiltered.
     if (env.layout() == EnvMap::Layout::kOctahedral && env.image().width == n && env.intensity() == 1.0 &&
@@ -314,7 +327,7 @@ TransportRenderer::LightState& TransportRenderer::Prepare(const Lighting& lighti
       // Texel averages, with samples spaced at most one stored pixel apart.
       const double texel_rad = std::sqrt(4 * M_PI) / n;
       const double pixel_rad = env.layout() == EnvMap::Layout::kLatLong ? M_PI / env.image().height
-                                                                         : std::sqrt(4 * M_PI) / env.image().width;
+                                                                        : std::sqrt(4 * M_PI) / env.image().width;
       const int ss = std::clamp(static_cast<int>(std::ceil(texel_rad / pixel_rad)) + 1, 2, 64);
       oct = env.ToOctahedral(n, ss);
     }
@@ -327,7 +340,7 @@ TransportRenderer::LightState& TransportRenderer::Prepare(const Lighting& lighti
       HaarForward(channel.data(), n, state->haar[c].data());
     }
   }
-  state->num_delta = lighting.directional.size() + lighting.points.size();
+  state->num_delta = lighting.directional.size() + state->suns.size() + lighting.points.size();
   for (int s = 0; s < scene_.num_surfaces(); ++s) {
     const size_t nv = scene_.surface(s).mesh.num_vertices();
     state->diffuse.emplace_back(nv, Eigen::Vector3f::Zero());
@@ -537,9 +550,10 @@ Eigen::Vector3f TransportRenderer::Shade(const LightState& light, int surface, u
       radiance += cos_i * fr.cwiseProduct(irradiance);
     };
     size_t k = 0;
-    for (const DirectionalLight& d : lighting.directional)
-      add(k++, d.dir_world.normalized().cast<float>(), std::numeric_limits<float>::infinity(),
-          d.irradiance_rgb.cast<float>());
+    for (const auto* list : {&lighting.directional, &light.suns})
+      for (const DirectionalLight& d : *list)
+        add(k++, d.dir_world.normalized().cast<float>(), std::numeric_limits<float>::infinity(),
+            d.irradiance_rgb.cast<float>());
     for (const PointLight& p : lighting.points) {
       const Eigen::Vector3f to = p.position_world.cast<float>() - x;
       const float r = to.norm();
@@ -628,7 +642,8 @@ RenderedView TransportRenderer::Render(const Lighting& lighting, const Camera& c
         const uint32_t v = needed[s][q];
         const Eigen::Vector3f to_camera = center - mesh.vertices[v];
         const float len = to_camera.norm();
-        st.view_radiance[v] = Shade(light, s, v, len > 0 ? Eigen::Vector3f(to_camera / len) : Eigen::Vector3f(cam_z * -1.0f));
+        st.view_radiance[v] =
+            Shade(light, s, v, len > 0 ? Eigen::Vector3f(to_camera / len) : Eigen::Vector3f(cam_z * -1.0f));
       });
     }
     // Pixels: the mean over the k×k rays of the interpolated vertex radiance (or the background).

@@ -8,7 +8,9 @@
 // the inverse stage's resolution and read bilinearly: the same numbers the
 // solver fitted the photos with, evaluated for any view and any light. Delta
 // lights (directional, point) add f cos E at each vertex that a shadow ray
-// finds unblocked. Pixels interpolate the radiance of the hit triangle's
+// finds unblocked; so does a sun sharper than a texel of the filtered map,
+// split out of a lat-long light first (render/sun_light.h), so that a sunny
+// HDR map casts sharp shadows here too. Pixels interpolate the radiance of the hit triangle's
 // vertices (Gouraud shading, the barycentric weights of the ray hit); each
 // pixel averages a regular k×k grid of camera rays. The Monte Carlo renderer
 // (render/render_view.h) stays the reference: it shades every ray hit with the

@@ -73,6 +73,11 @@ const std::map<std::string, std::string>& Definitions() {
        "Held-out views relit under held-out environment maps against the ground-truth renders: scale-invariant "
        "HDR-PSNR inside the object mask (one least-squares scale per channel; peak = 99th percentile of the "
        "reference), mean over renders."},
+      {"shadow_contrast_error",
+       "Held-out views under held-out skies with a known sun: the ratio of mean luminance where the sun reaches "
+       "the true surface to where it does not (regions ray-cast on the true geometry, 2 px from their edges), "
+       "relit against ground truth: |relit ratio / true ratio &minus; 1|, mean over renders (0: the truth's "
+       "contrast; 0.2: shadows 20 % too light or too dark, e.g. shading baked into the albedo or a blurred sun)."},
       {"rerender_psnr_db",
        "Input photos re-rendered under their recovered environment maps against the linear photos, same PSNR, over "
        "unclipped pixels of observed vertices; mean over photos."},
@@ -593,9 +598,14 @@ class ReportBuilder {
       const std::string name = e.value("name", "");
       rows.push_back({html::Escape(name), EvalFig(e, "reference", name + ": ground truth"),
                       EvalFig(e, "relit", name + ": relit model"), EvalFig(e, "error", name + ": error"),
-                      html::Number(Num(e, "psnr_db"), 2)});
+                      html::Number(Num(e, "psnr_db"), 2),
+                      e.contains("shadow_ratio_reference") ? html::Number(Num(e, "shadow_ratio_reference"), 1) + " / " +
+                                                                 html::Number(Num(e, "shadow_ratio_relit"), 1)
+                                                           : std::string("<span class=\"na\">&ndash;</span>")});
     }
-    s << html::Table({"view and map", "ground truth", "relit", "error", "PSNR [dB]"}, rows, "images");
+    s << html::Table({"view and map", "ground truth", "relit", "error", "PSNR [dB]",
+                      "sunlit &divide; shadow luminance (truth / relit)"},
+                     rows, "images");
   }
 
   void NewLightSection(std::ostringstream& s) {

@@ -24,6 +24,7 @@
 #include "core/log.h"
 #include "core/path_text.h"
 #include "core/progress.h"
+#include "core/stats.h"
 #include "core/timer.h"
 #include "image/color.h"
 #include "image/image.h"
@@ -52,12 +53,6 @@ constexpr const char* kWhatToChange =
     "object at a similar size; photos of at least 1000 pixels give more features than small ones; photos taken "
     "under very different light (sun and shadow moving) match poorly, so add photos in between. If the cameras "
     "are known, give them (sfm.mode: model); stage.log has COLMAP's output";
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 // Tone-maps a linear (EXR/HDR) photo to an 8-bit sRGB PNG for SIFT: the 99th
 // percentile of luminance maps to white.
