@@ -56,16 +56,18 @@ ConfigDocument LoadDocument(const CommonArgs& args) {
 
 void PrintTable(const std::vector<StageRecord>& records, std::ostream& out) {
   out << std::left << std::setw(12) << "stage" << std::setw(12) << "status" << std::setw(10) << "seconds"
-      << std::setw(18) << "key" << "output / reason\n";
+      << std::setw(10) << "peak MiB" << std::setw(18) << "key" << "output / reason\n";
   for (const auto& r : records) {
-    std::ostringstream secs;
+    std::ostringstream secs, memory;
     secs << std::fixed << std::setprecision(1) << r.seconds;
+    memory << std::fixed << std::setprecision(0) << r.peak_memory_mib;
     // One line per stage: a long reason is cut here (it is printed in full below the table).
     std::string detail = PathText(r.reason.empty() ? r.output_dir : r.reason);
     if (!r.reason.empty() && detail.size() > 100) detail = detail.substr(0, 97) + "...";
     out << std::left << std::setw(12) << r.name << std::setw(12) << r.status << std::setw(10)
-        << (r.key.empty() ? "-" : secs.str()) << std::setw(18) << (r.key.empty() ? "-" : r.key.substr(0, 16))
-        << detail << "\n";
+        << (r.key.empty() ? "-" : secs.str()) << std::setw(10)
+        << (r.key.empty() || r.peak_memory_mib <= 0 ? "-" : memory.str()) << std::setw(18)
+        << (r.key.empty() ? "-" : r.key.substr(0, 16)) << detail << "\n";
   }
 }
 

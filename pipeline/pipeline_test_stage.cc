@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <thread>
+#include <vector>
 
 #include "core/fs.h"
 #include "core/log.h"
@@ -29,6 +30,11 @@ int main(int argc, char** argv) {
       RELIGHT_USER_ERROR() << "failing on request of TEST_STAGE_FAIL";
     }
     if (o.fail) RELIGHT_USER_ERROR() << "asked to fail on input 'x.jpg'; remove it";
+    if (o.memory_mib > 0) {
+      std::vector<char> block(size_t(o.memory_mib) << 20);
+      for (size_t k = 0; k < block.size(); k += 4096) block[k] = char(k);  // touch every page
+      RLOG_INFO("touched {} MiB ({})", o.memory_mib, int(block[block.size() / 2]));
+    }
     long total = o.value;
     for (const auto& [name, dir] : ctx.inputs) total += std::stol(ReadFileToString(JoinPath(dir, "result.txt")));
     int computed = 0;

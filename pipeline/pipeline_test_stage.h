@@ -15,6 +15,7 @@ struct TestStageOptions {
   bool fail = false;     // Exit with a user error.
   std::string input;     // Optional raw input file (content enters the key).
   std::string note;      // Not in the key.
+  int memory_mib = 0;    // Memory to allocate and touch (to test the peak-memory record).
 
   void Declare(OptionTable* t) {
     t->Add("value", &value, "Result contribution.");
@@ -23,6 +24,7 @@ struct TestStageOptions {
     t->Add("fail", &fail, "Fail with a user error.");
     t->Add("input", &input, "Raw input file.").InputFile();
     t->Add("note", &note, "Free text, not in the key.").NotInKey();
+    t->Add("memory_mib", &memory_mib, "MiB to allocate and touch.").Min(0);
   }
   void Check() const {}
 };

@@ -124,7 +124,9 @@ std::vector<StageRecord> Runner::Plan() {
     if (IsDone(r.output_dir, r.key)) {
       r.status = "cached";
       try {
-        r.seconds = ReadJsonFile(JoinPath(r.output_dir, "status.json")).value("seconds", 0.0);
+        const Json status = ReadJsonFile(JoinPath(r.output_dir, "status.json"));
+        r.seconds = status.value("seconds", 0.0);
+        r.peak_memory_mib = status.value("peak_memory_mib", 0.0);
       } catch (const std::exception&) {
       }
     } else {
@@ -289,6 +291,7 @@ bool Runner::RunOne(StageRecord* r, bool replace_existing) {
   Timer timer;
   const ProcessResult result = RunProcess(argv);
   r->seconds = timer.Seconds();
+  r->peak_memory_mib = result.peak_memory_mib;
   if (!result.ok() && InterruptSignal() != 0) {
     r->status = "interrupted";
     r->reason = std::string("interrupted by SIG") + sigabbrev_np(InterruptSignal()) + " after " +
@@ -324,6 +327,7 @@ bool Runner::RunOne(StageRecord* r, bool replace_existing) {
   status["key"] = r->key;
   status["version"] = def.info.version;
   status["seconds"] = r->seconds;
+  status["peak_memory_mib"] = r->peak_memory_mib;
   status["started"] = started;
   status["finished"] = NowIso();
   status["upstream"] = r->upstream;
@@ -351,6 +355,8 @@ void Runner::WriteSummary(const std::vector<StageRecord>& records) const {
     s["key"] = r.key;
     s["status"] = r.status == "missing" ? "skipped" : r.status;
     s["seconds"] = r.status == "cached" ? 0.0 : r.seconds;
+    const bool ran = r.status == "done" || r.status == "failed" || r.status == "interrupted";
+    s["peak_memory_mib"] = ran ? r.peak_memory_mib : 0.0;  // like seconds: 0 for a cached stage
     s["output_dir"] = r.output_dir;
     if (!r.reason.empty()) s["reason"] = r.reason;
     stages.push_back(s);

@@ -41,6 +41,7 @@ struct StageRecord {
   // `running` in a summary.json written while the stage runs.
   std::string status;
   double seconds = 0;      // wall time of this run (0 when cached), or of the cached run for `status`
+  double peak_memory_mib = 0;  // largest resident set of the stage's process tree, of this or the cached run
   std::string output_dir;  // absolute
   std::string reason;      // why skipped or failed
   std::map<std::string, std::string> upstream;  // upstream stage -> key

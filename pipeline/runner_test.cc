@@ -120,6 +120,26 @@ TEST_F(RunnerTest, SecondRunReusesEverything) {
   EXPECT_NE(ReadFileToString(Find(first, "beta").output_dir + "/key.txt").find("upstream alpha="), std::string::npos);
 }
 
+// Each stage's peak memory (its process tree's largest resident set) is recorded in status.json and
+// summary.json, and read back with the cached result.
+TEST_F(RunnerTest, PeakMemoryOfEachStageIsRecorded) {
+  const std::string yaml =
+      "alpha:\n  value: 1\n  input: raw.txt\nbeta:\n  value: 10\n  memory_mib: 160\ngamma:\n  value: 100\n";
+  const auto first = Run(yaml);
+  const Json beta = ReadJsonFile(Find(first, "beta").output_dir + "/status.json");
+  const Json alpha = ReadJsonFile(Find(first, "alpha").output_dir + "/status.json");
+  // The 160 MiB block plus the process itself (libraries, a few MiB); alpha holds no block.
+  EXPECT_GE(beta["peak_memory_mib"].get<double>(), 160.0);
+  EXPECT_LT(beta["peak_memory_mib"].get<double>(), 160.0 + 64);
+  EXPECT_GT(alpha["peak_memory_mib"].get<double>(), 0.5);
+  EXPECT_LT(alpha["peak_memory_mib"].get<double>(), 64.0);
+  const Json summary = ReadJsonFile(dir_ / "ws/summary.json");
+  EXPECT_DOUBLE_EQ(summary["stages"][1]["peak_memory_mib"].get<double>(), beta["peak_memory_mib"].get<double>());
+  const auto second = Run(yaml);
+  EXPECT_EQ(Find(second, "beta").status, "cached");
+  EXPECT_DOUBLE_EQ(Find(second, "beta").peak_memory_mib, beta["peak_memory_mib"].get<double>());
+}
+
 TEST_F(RunnerTest, ChangedOptionRerunsStageAndDownstreamOnly) {
   Run(base_);
   Invocations();

@@ -2,6 +2,7 @@
 
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -43,7 +44,8 @@ ProcessResult RunProcess(const std::vector<std::string>& argv) {
   }
   SetInterruptTarget(pid);
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0) {
+  struct rusage usage {};
+  while (::wait4(pid, &status, 0, &usage) < 0) {
     if (errno != EINTR) {
       SetInterruptTarget(0);
       RELIGHT_USER_ERROR() << "waiting for '" << argv[0] << "' failed: " << std::strerror(errno);
@@ -51,6 +53,7 @@ ProcessResult RunProcess(const std::vector<std::string>& argv) {
   }
   SetInterruptTarget(0);
   ProcessResult result;
+  result.peak_memory_mib = usage.ru_maxrss / 1024.0;  // ru_maxrss is in KiB on Linux
   if (WIFSIGNALED(status)) {
     result.signaled = true;
     result.signal = WTERMSIG(status);

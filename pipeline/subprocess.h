@@ -13,6 +13,9 @@ struct ProcessResult {
   int exit_code = -1;  // valid when !signaled
   bool signaled = false;
   int signal = 0;
+  // Largest resident set of the child or of any descendant it waited for (COLMAP runs under sfm and mvs)
+  // [MiB], from wait4's resource usage.
+  double peak_memory_mib = 0;
   bool ok() const { return !signaled && exit_code == 0; }
   // "exit code 2", "killed by signal 9 (Killed)".
   std::string Describe() const;
