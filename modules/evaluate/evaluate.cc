@@ -430,7 +430,13 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
                     {"reason", "fewer than " + std::to_string(kMinShadowRegionPixels) + " sunlit or shadowed pixels"}};
                 continue;
               }
-              const ShadowContrast s = MeasureShadowContrast(ref, est, regions, name);
+              ShadowContrast s;
+              try {
+                s = MeasureShadowContrast(ref, est, regions, name);
+              } catch (const UserError& e) {  // black shadows: no finite ratio; the other scores still count
+                sc[object_only ? "object" : "surface"] = {{"reason", e.what()}};
+                continue;
+              }
               sc[object_only ? "object" : "surface"] = {{"lit_pixels", s.lit_pixels},
                                                         {"shadow_pixels", s.shadow_pixels},
                                                         {"reference_ratio", s.reference_ratio},
