@@ -166,8 +166,9 @@ std::vector<StageRecord> Runner::Run(const RunRequest& request) {
   bool interrupted = false;
   // Stages that produced a result in this run. A cached entry downstream of
   // one was computed from the result it replaced (a forced rerun keeps the key,
-  // and stages such as COLMAP's are not deterministic), so it reruns too, or is
-  // invalidated when this run does not reach it.
+  // and a rerun may differ: COLMAP's spatial and vocab_tree matchers are not
+  // deterministic), so it reruns too, or is invalidated when this run does not
+  // reach it.
   std::set<std::string> produced;
   for (int i = 0; i < static_cast<int>(records.size()); ++i) {
     StageRecord& r = records[i];

@@ -12,13 +12,14 @@
 // 0.99-1.07% of the object's diagonal, sun direction 1.2-2.1 deg, relighting
 // 17.7-18.3 dB and re-rendering 18.7-19.2 dB (scale-invariant HDR-PSNR on the
 // object's pixels). The bounds: the issue-8 camera targets; Chamfer 2%; light
-// direction 10 deg; PSNR about 3 dB under the measured values (Monte Carlo
-// noise of relight and synthesize, COLMAP's non-deterministic matching and
-// fusion). A mesh stage that crops part of the object fails all of them at
+// direction 10 deg; PSNR about 3 dB under the measured values. The chain is
+// deterministic since mvs 7 (COLMAP's fusion and Poisson on one thread): two runs
+// from scratch gave byte-identical meshes and results. Before, fusion order
+// alone moved the env-map error between 0.708 and 0.809 over three CI runs. A mesh stage that crops part of the object fails all of them at
 // once (Chamfer 4-9%, sun 97-125 deg off, 12-13 dB: RESULTS@15cf301, "Why two CI runs
-// failed"). Environment maps (inverse 14, light_prior natural, 2026-12-05): relative error 0.726 over the
-// whole sphere against 0.828 with light_prior smooth; bound 0.78, so a prior that stops filling the
-// unseen directions with daylight fails.
+// failed"). Environment maps (inverse 14, light_prior natural, mvs 7, 2026-12-05): relative error 0.710
+// over the whole sphere against 0.828 with light_prior smooth; bound 0.78, so a prior that stops filling
+// the unseen directions with daylight fails.
 //
 // Set RELIGHT_CHAIN_WORKSPACE to keep the workspace (and reuse it across runs).
 #include <gtest/gtest.h>

@@ -141,7 +141,7 @@ bool ColmapHasCuda(std::string* banner) {
 }
 
 size_t RunStereoFusion(const MvsOptions& options, const std::string& workspace_dir, const std::string& input_type,
-                       const std::string& output_ply, int threads) {
+                       const std::string& output_ply) {
   AtomicFile out(output_ply);
   const ColmapToolRun run = RunColmapTool({"stereo_fusion",
                                            "--workspace_path", workspace_dir,
@@ -149,7 +149,7 @@ size_t RunStereoFusion(const MvsOptions& options, const std::string& workspace_d
                                            "--input_type", input_type,
                                            "--output_type", "PLY",
                                            "--output_path", out.temp_path(),
-                                           "--StereoFusion.num_threads", std::to_string(threads > 0 ? threads : -1),
+                                           "--StereoFusion.num_threads", "1",  // deterministic (colmap_tools.h)
                                            "--StereoFusion.min_num_pixels", std::to_string(options.fusion_min_num_pixels),
                                            "--StereoFusion.max_reproj_error", std::to_string(options.fusion_max_reproj_error_px),
                                            "--StereoFusion.max_depth_error", std::to_string(options.fusion_max_depth_error),
@@ -172,15 +172,14 @@ size_t RunStereoFusion(const MvsOptions& options, const std::string& workspace_d
   return points;
 }
 
-void RunColmapPoisson(const MvsOptions& options, const std::string& fused_ply, const std::string& output_ply,
-                      int threads) {
+void RunColmapPoisson(const MvsOptions& options, const std::string& fused_ply, const std::string& output_ply) {
   AtomicFile out(output_ply);
   const ColmapToolRun run = RunColmapTool({"poisson_mesher",
                                            "--input_path", fused_ply,
                                            "--output_path", out.temp_path(),
                                            "--PoissonMeshing.depth", std::to_string(options.poisson_depth),
                                            "--PoissonMeshing.trim", std::to_string(options.poisson_trim),
-                                           "--PoissonMeshing.num_threads", std::to_string(threads > 0 ? threads : -1)});
+                                           "--PoissonMeshing.num_threads", "1"});  // deterministic (colmap_tools.h)
   if (!run.ok() || !fs::exists(out.temp_path())) {
     RELIGHT_USER_ERROR() << "colmap poisson_mesher wrote no mesh from '" << fused_ply << "' (" << run.Describe()
                          << "); the fused points need normals (nx, ny, nz); see stage.log";

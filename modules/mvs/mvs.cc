@@ -339,8 +339,7 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
   return final_type;
 }
 
-MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir,
-                  int threads) {
+MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir) {
   Timer total;
   MvsSummary summary;
   summary.engine = options.engine;
@@ -371,7 +370,7 @@ MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const s
 
   step.Restart();
   const std::string fused_path = JoinPath(output_dir, "fused.ply");
-  summary.fused_points = RunStereoFusion(options, workspace.dir, input_type, fused_path, threads);
+  summary.fused_points = RunStereoFusion(options, workspace.dir, input_type, fused_path);
   summary.step_seconds.emplace_back("fusion", step.Seconds());
   RLOG_INFO("stereo fusion: {} points", summary.fused_points);
 
@@ -379,7 +378,7 @@ MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const s
     step.Restart();
     const std::string mesh_path = JoinPath(output_dir, "meshed.ply");
     if (options.mesher == "colmap_poisson") {
-      RunColmapPoisson(options, fused_path, mesh_path, threads);
+      RunColmapPoisson(options, fused_path, mesh_path);
     } else {
       CgalPoissonStats stats;
       const TriangleMesh mesh = CgalPoissonReconstruct(ReadMesh(fused_path), &stats);

@@ -65,10 +65,9 @@ struct MvsSummary {
 // Returns the map type fusion reads ("geometric" or "photometric").
 std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& workspace, MvsSummary* summary);
 
-// Runs the stage on an sfm output folder, writing into `output_dir` (exists). `threads` > 0 limits COLMAP's
-// threads (TBB is limited by the caller).
-MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir,
-                  int threads = 0);
+// Runs the stage on an sfm output folder, writing into `output_dir` (exists). The depth maps use the TBB
+// threads the caller allows; COLMAP's fusion and Poisson run on one thread (colmap_tools.h).
+MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir);
 
 // Writes mvs_summary.json.
 void WriteMvsSummary(const MvsSummary& summary, const std::string& path);

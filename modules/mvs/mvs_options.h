@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kMvsStage{
-    "mvs", "Dense geometry: CPU PatchMatch multi-view stereo, COLMAP stereo fusion and Poisson meshing", 6};
+    "mvs", "Dense geometry: CPU PatchMatch multi-view stereo, COLMAP stereo fusion and Poisson meshing", 7};
 
 struct MvsOptions {
   // --- engine and resolution
