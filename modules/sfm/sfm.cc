@@ -32,6 +32,7 @@
 #include "sfm/colmap_command.h"
 #include "sfm/colmap_database.h"
 #include "sfm/descriptor_matching.h"
+#include "sfm/image_retrieval.h"
 #include "sfm/model_consensus.h"
 #include "sfm/two_view_verification.h"
 
@@ -211,11 +212,7 @@ std::string ChooseMatcher(const SfmOptions& options, int num_photos) {
   if (options.matcher != "auto") return options.matcher;
   if (num_photos <= options.exhaustive_max_photos) return "exhaustive";
   if (!options.vocab_tree.empty()) return "vocab_tree";
-  RLOG_WARN(
-      "{} photos > sfm.exhaustive_max_photos = {} but no sfm.vocab_tree is set: matching exhaustively "
-      "(about {} pairs; this can take hours). Set sfm.vocab_tree to a COLMAP vocabulary tree to go faster.",
-      num_photos, options.exhaustive_max_photos, int64_t(num_photos) * (num_photos - 1) / 2);
-  return "exhaustive";
+  return "retrieval";
 }
 
 // Reads every model below `models_dir` (mapper output 0/, 1/, ...), largest first.
@@ -421,11 +418,13 @@ void AddChromaFeatures(const std::string& database, const std::string& image_dir
   step_seconds->emplace_back("colour features", timer.Seconds());
 }
 
-// Putative matches of every pair (exhaustive) or of each photo with its next
-// `overlap` photos in name order (sequential), by our exact descriptor search
-// (descriptor_matching.h), into the database's `matches` table.
-void MatchFeatures(const std::string& database, const std::string& matcher, int overlap, int threads,
-                   std::vector<std::pair<std::string, double>>* step_seconds) {
+// Putative matches of every pair (exhaustive), of each photo with its next
+// `options.sequential_overlap` photos in name order (sequential), or with its
+// most similar photos (retrieval, image_retrieval.h), by our exact descriptor
+// search (descriptor_matching.h), into the database's `matches` table.
+// Returns the number of photo pairs compared.
+int64_t MatchFeatures(const std::string& database, const std::string& matcher, const SfmOptions& options,
+                      int threads, std::vector<std::pair<std::string, double>>* step_seconds) {
   Timer timer;
   ColmapDatabase db(database);
   std::vector<DatabaseImage> images = db.ReadImages();
@@ -437,13 +436,30 @@ void MatchFeatures(const std::string& database, const std::string& matcher, int 
     descriptors[i] = NormalizedDescriptors(data, rows, cols);
   }
   std::vector<std::pair<int, int>> pairs;  // indices into `images`
-  for (int i = 0; i < static_cast<int>(images.size()); ++i) {
-    const int last = matcher == "sequential" ? std::min<int>(images.size() - 1, i + overlap) : images.size() - 1;
-    for (int j = i + 1; j <= last; ++j) pairs.emplace_back(i, j);
+  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+  if (matcher == "retrieval") {
+    ImageRetrievalOptions retrieval;
+    retrieval.num_neighbors = options.retrieval_neighbors;
+    retrieval.seed = static_cast<uint64_t>(options.seed);
+    RetrievalResult found;
+    arena.execute([&] { found = RetrieveImagePairs(descriptors, retrieval); });
+    pairs = std::move(found.pairs);
+    step_seconds->emplace_back("retrieval: vocabulary", found.build_seconds);
+    step_seconds->emplace_back("retrieval: ranking", found.query_seconds);
+    RLOG_INFO("retrieval: {} visual words from the photos' own features ({:.1f} s), {} photo pairs of {} "
+              "({} most similar photos each, {:.1f} s)",
+              found.num_words, found.build_seconds, pairs.size(),
+              int64_t(images.size()) * (int64_t(images.size()) - 1) / 2, options.retrieval_neighbors,
+              found.query_seconds);
+  } else {
+    for (int i = 0; i < static_cast<int>(images.size()); ++i) {
+      const int last = matcher == "sequential" ? std::min<int>(images.size() - 1, i + options.sequential_overlap)
+                                               : images.size() - 1;
+      for (int j = i + 1; j <= last; ++j) pairs.emplace_back(i, j);
+    }
   }
   std::vector<DatabaseMatches> results(pairs.size());
   Progress progress("match features (" + matcher + ")", static_cast<int64_t>(pairs.size()));
-  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
   arena.execute([&] {
     tbb::parallel_for(size_t(0), pairs.size(), [&](size_t k) {
       auto [i, j] = pairs[k];
@@ -465,6 +481,7 @@ void MatchFeatures(const std::string& database, const std::string& matcher, int 
   step_seconds->emplace_back("match features (" + matcher + ")", timer.Seconds());
   RLOG_INFO("matching ({}): {} photo pairs, {} with at least {} putative matches", matcher, pairs.size(),
             kept.size(), kMinPairInliers);
+  return static_cast<int64_t>(pairs.size());
 }
 
 // Runs a COLMAP command that reads `model` from --input_path and writes a model to --output_path (fresh
@@ -828,8 +845,8 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
   RLOG_INFO("intrinsics refinement: {}", summary.refine_intrinsics);
 
   summary.matcher = ChooseMatcher(options, n);
-  if (summary.matcher == "exhaustive" || summary.matcher == "sequential") {
-    MatchFeatures(database, summary.matcher, options.sequential_overlap, threads, &summary.step_seconds);
+  if (summary.matcher == "exhaustive" || summary.matcher == "sequential" || summary.matcher == "retrieval") {
+    summary.num_pairs_matched = MatchFeatures(database, summary.matcher, options, threads, &summary.step_seconds);
   } else {
     // COLMAP's spatial and vocabulary-tree matchers: their kd-tree search is not seeded, so matches (and
     // possibly the registration) vary slightly between runs.
@@ -1439,6 +1456,7 @@ void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
   j["mean_reprojection_error_px"] = summary.mean_reprojection_error_px;
   if (summary.mode == "colmap") {
     j["matcher"] = summary.matcher;
+    if (summary.num_pairs_matched >= 0) j["num_pairs_matched"] = summary.num_pairs_matched;
     j["shared_intrinsics"] = summary.shared_intrinsics;
     j["refine_intrinsics"] = summary.refine_intrinsics;
     j["principal_point_refined"] = summary.principal_point_refined;

@@ -19,8 +19,9 @@ struct SfmOptions {
   std::string camera_model = "SIMPLE_RADIAL";  // COLMAP camera model of new cameras.
   std::string shared_intrinsics = "auto";      // auto | single | per_image: one camera for all photos or one each.
   bool use_exif_focal = true;                  // Start from the EXIF focal length (ingest's focal_px) as a prior.
-  std::string matcher = "auto";                // auto | exhaustive | sequential | spatial | vocab_tree.
+  std::string matcher = "auto";                // auto | exhaustive | retrieval | sequential | spatial | vocab_tree.
   int exhaustive_max_photos = 100;             // auto: exhaustive matching up to this many photos.
+  int retrieval_neighbors = 30;                // retrieval: most similar photos each photo is matched with.
   std::string vocab_tree;                      // Vocabulary-tree file (COLMAP's FLANN format) for vocab_tree matching.
   int sequential_overlap = 10;                 // Neighbours each photo is matched with by the sequential matcher.
   int max_image_size = 1600;                // Longest side SIFT sees (pixels); larger photos are downscaled for SIFT.
@@ -56,11 +57,17 @@ struct SfmOptions {
     t->Add("use_exif_focal", &use_exif_focal, "Initialise the focal length from EXIF (ingest's focal_px) as a prior.");
     t->Add("matcher", &matcher,
            "auto: exhaustive up to sfm.exhaustive_max_photos, else vocab_tree when sfm.vocab_tree is set, else "
-           "exhaustive with a warning; sequential suits video frames; spatial needs GPS in EXIF.")
-        .Choices({"auto", "exhaustive", "sequential", "spatial", "vocab_tree"});
+           "retrieval; retrieval: each photo matched with its most similar ones, found with a vocabulary built "
+           "from the collection's own features (no file needed); sequential suits video frames; spatial needs "
+           "GPS in EXIF; vocab_tree: COLMAP's matcher with a downloaded tree.")
+        .Choices({"auto", "exhaustive", "retrieval", "sequential", "spatial", "vocab_tree"});
     t->Add("exhaustive_max_photos", &exhaustive_max_photos,
            "auto matcher: exhaustive matching (cost grows with the square of the photos) up to this many photos.")
         .Min(3);
+    t->Add("retrieval_neighbors", &retrieval_neighbors,
+           "retrieval matcher: the most similar photos each photo is matched with. Raise it when photos of a "
+           "large collection stay unregistered; matching time grows with it.")
+        .Min(2);
     t->Add("vocab_tree", &vocab_tree, "Vocabulary-tree file for vocab_tree matching (COLMAP's download page).")
         .InputFile();
     t->Add("sequential_overlap", &sequential_overlap, "Sequential matcher: neighbours matched per photo.").Min(1);

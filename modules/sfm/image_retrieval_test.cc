@@ -1,0 +1,123 @@
+#include "sfm/image_retrieval.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <set>
+
+namespace relight {
+namespace {
+
+// A ring of `n` photos over a ring of landmarks: photo i sees the landmarks whose angle is within
+// `half_window` of its own, each as the landmark's descriptor plus noise, and as many clutter features that no
+// other photo shares (sky, people). Two photos share more landmarks the closer they are on the ring.
+std::vector<DescriptorMatrix> RingCollection(int n, int landmarks, double half_window, double noise, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> gauss(0.0f, 1.0f);
+  const auto random_descriptor = [&] {
+    Eigen::VectorXf d(128);
+    for (int k = 0; k < 128; ++k) d[k] = std::abs(gauss(rng));  // SIFT descriptors are non-negative
+    return Eigen::VectorXf(d.normalized());
+  };
+  std::vector<Eigen::VectorXf> world(landmarks);
+  for (auto& d : world) d = random_descriptor();
+  std::vector<DescriptorMatrix> photos(n);
+  for (int i = 0; i < n; ++i) {
+    const double angle = 2 * M_PI * i / n;
+    std::vector<Eigen::VectorXf> rows;
+    for (int l = 0; l < landmarks; ++l) {
+      const double a = 2 * M_PI * l / landmarks;
+      const double diff = std::abs(std::remainder(a - angle, 2 * M_PI));
+      if (diff > half_window) continue;
+      Eigen::VectorXf d = world[l];
+      for (int k = 0; k < 128; ++k) d[k] = std::max(0.0f, d[k] + static_cast<float>(noise) * gauss(rng));
+      rows.push_back(d.normalized());
+    }
+    const size_t shared = rows.size();
+    for (size_t c = 0; c < shared; ++c) rows.push_back(random_descriptor());
+    photos[i].resize(rows.size(), 128);
+    for (size_t r = 0; r < rows.size(); ++r) photos[i].row(r) = rows[r].transpose();
+  }
+  return photos;
+}
+
+TEST(ImageRetrievalTest, RanksRingNeighboursFirstAndPairsEachPhotoWithThem) {
+  // 40 photos 9 degrees apart, each seeing 60 degrees of the ring: neighbours 1..6 steps away share
+  // 85 %..10 % of their landmarks, farther ones none.
+  const int n = 40;
+  const auto photos = RingCollection(n, 2400, M_PI / 6, 0.02, 7);
+  ImageRetrievalOptions options;
+  options.num_neighbors = 4;
+  options.max_training_descriptors = 40000;
+  options.branching = 16;  // 32,000 descriptors: a 4,096-word tree (the default 32 suits real collections' 250,000)
+  const RetrievalResult result = RetrieveImagePairs(photos, options);
+  EXPECT_GT(result.num_words, 1000);
+  ASSERT_EQ(result.ranked.size(), size_t(n));
+  int adjacent_first = 0;
+  for (int i = 0; i < n; ++i) {
+    std::set<int> got, want;
+    for (const auto& [j, score] : result.ranked[i]) got.insert(j);
+    for (int step : {-2, -1, 1, 2}) want.insert((i + step + n) % n);
+    EXPECT_EQ(got, want) << "photo " << i;
+    const int first = result.ranked[i][0].first;
+    adjacent_first += std::min((first - i + n) % n, (i - first + n) % n) == 1;
+  }
+  // Scores fall with the distance on the ring: nearly always an adjacent photo (85 % shared) ranks first,
+  // ahead of those two steps away (70 %).
+  EXPECT_GE(adjacent_first, n * 9 / 10);
+  // Every photo paired with its 4 ring neighbours and no others: 2 n pairs.
+  EXPECT_EQ(result.pairs.size(), size_t(2 * n));
+  for (const auto& [i, j] : result.pairs) {
+    EXPECT_LT(i, j);
+    const int step = std::min(j - i, n - (j - i));
+    EXPECT_LE(step, 2) << i << "-" << j;
+  }
+}
+
+TEST(ImageRetrievalTest, SameSeedSamePairs) {
+  const auto photos = RingCollection(30, 1500, M_PI / 5, 0.05, 3);
+  ImageRetrievalOptions options;
+  options.num_neighbors = 5;
+  options.max_training_descriptors = 20000;
+  const RetrievalResult a = RetrieveImagePairs(photos, options);
+  const RetrievalResult b = RetrieveImagePairs(photos, options);
+  EXPECT_EQ(a.pairs, b.pairs);
+  EXPECT_EQ(a.num_words, b.num_words);
+}
+
+TEST(ImageRetrievalTest, SmallCollectionGetsEveryPair) {
+  const auto photos = RingCollection(6, 300, M_PI / 4, 0.05, 5);
+  ImageRetrievalOptions options;
+  options.num_neighbors = 5;
+  const RetrievalResult result = RetrieveImagePairs(photos, options);
+  EXPECT_EQ(result.pairs.size(), size_t(15));
+  EXPECT_EQ(result.num_words, 0);  // no vocabulary needed
+}
+
+TEST(ImageRetrievalTest, QuantizeSendsEachTrainingClusterToItsOwnWord) {
+  // Four tight, well separated clusters and a one-level tree of branching 4: one word per cluster.
+  std::mt19937 rng(11);
+  std::normal_distribution<float> gauss(0.0f, 1.0f);
+  DescriptorMatrix training(400, 128);
+  for (int r = 0; r < 400; ++r) {
+    Eigen::VectorXf d = Eigen::VectorXf::Zero(128);
+    d.segment((r % 4) * 32, 32).setConstant(1.0f);
+    for (int k = 0; k < 128; ++k) d[k] += 0.01f * gauss(rng);
+    training.row(r) = d.normalized().transpose();
+  }
+  ImageRetrievalOptions options;
+  options.branching = 4;
+  options.levels = 1;
+  const VocabularyTree tree = VocabularyTree::Build(training, options);
+  ASSERT_EQ(tree.num_words(), 4);
+  const std::vector<int> words = tree.Quantize(training);
+  std::set<int> distinct;
+  for (int r = 0; r < 400; ++r) {
+    EXPECT_EQ(words[r], words[r % 4]) << r;
+    distinct.insert(words[r]);
+  }
+  EXPECT_EQ(distinct.size(), size_t(4));
+}
+
+}  // namespace
+}  // namespace relight
