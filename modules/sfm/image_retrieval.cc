@@ -112,7 +112,17 @@ RetrievalResult RetrieveImagePairs(const std::vector<DescriptorMatrix>& descript
   }
   Timer timer;
   // Training rows: evenly strided from every photo, the same share of each.
-  const int dims = descriptors.front().cols();
+  // Photos without features (blank or tiny) add nothing to the tree and rank last for every photo.
+  int dims = 0;
+  for (const auto& d : descriptors) {
+    if (d.rows() > 0) dims = static_cast<int>(d.cols());
+  }
+  if (dims == 0) {  // no features anywhere: nothing to rank by
+    for (int i = 0; i < n; ++i) {
+      for (int j = i + 1; j < n; ++j) result.pairs.emplace_back(i, j);
+    }
+    return result;
+  }
   const int64_t per_photo = std::max<int64_t>(1, options.max_training_descriptors / n);
   std::vector<std::pair<int, int>> sample;  // (photo, row)
   for (int i = 0; i < n; ++i) {
@@ -130,7 +140,9 @@ RetrievalResult RetrieveImagePairs(const std::vector<DescriptorMatrix>& descript
   // tf-idf histograms, one row per photo, unit length; the square root of a word's count damps repeated
   // texture (one brick pattern, one leafy background) that would otherwise dominate a photo's histogram.
   std::vector<std::vector<int>> words(n);
-  for (int i = 0; i < n; ++i) words[i] = tree.Quantize(descriptors[i]);
+  for (int i = 0; i < n; ++i) {
+    if (descriptors[i].rows() > 0) words[i] = tree.Quantize(descriptors[i]);
+  }
   std::vector<int> photos_with_word(tree.num_words(), 0);
   std::vector<std::vector<std::pair<int, float>>> histograms(n);
   for (int i = 0; i < n; ++i) {

@@ -85,6 +85,21 @@ TEST(ImageRetrievalTest, SameSeedSamePairs) {
   EXPECT_EQ(a.num_words, b.num_words);
 }
 
+TEST(ImageRetrievalTest, PhotoWithoutFeaturesIsRankedLastNotACrash) {
+  auto photos = RingCollection(40, 2400, M_PI / 6, 0.02, 7);
+  photos[0] = DescriptorMatrix(0, 0);  // a blank photo: SIFT found nothing
+  ImageRetrievalOptions options;
+  options.num_neighbors = 4;
+  options.branching = 16;
+  const RetrievalResult result = RetrieveImagePairs(photos, options);
+  ASSERT_EQ(result.ranked.size(), size_t(40));
+  for (int i = 2; i < 39; ++i) {  // photos whose two-step neighbourhood does not hold the blank one
+    for (const auto& [j, score] : result.ranked[i]) EXPECT_NE(j, 0) << "photo " << i;
+  }
+  std::vector<DescriptorMatrix> blank(40, DescriptorMatrix(0, 0));
+  EXPECT_EQ(RetrieveImagePairs(blank, options).pairs.size(), size_t(40 * 39 / 2));
+}
+
 TEST(ImageRetrievalTest, SmallCollectionGetsEveryPair) {
   const auto photos = RingCollection(6, 300, M_PI / 4, 0.05, 5);
   ImageRetrievalOptions options;
