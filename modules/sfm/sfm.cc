@@ -440,7 +440,7 @@ int64_t MatchFeatures(const std::string& database, const std::string& matcher, c
   if (matcher == "retrieval") {
     ImageRetrievalOptions retrieval;
     retrieval.num_neighbors = options.retrieval_neighbors;
-    retrieval.seed = static_cast<uint64_t>(options.seed);
+    retrieval.seed = static_cast<uint64_t>(options.seed);  // see image_retrieval.h on reproducibility
     RetrievalResult found;
     arena.execute([&] { found = RetrieveImagePairs(descriptors, retrieval); });
     pairs = std::move(found.pairs);
