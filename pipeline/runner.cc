@@ -21,6 +21,7 @@
 #include "core/progress.h"
 #include "core/timer.h"
 #include "pipeline/interrupt.h"
+#include "pipeline/slurm.h"
 #include "pipeline/subprocess.h"
 
 namespace relight::pipeline {
@@ -282,7 +283,9 @@ bool Runner::RunOne(StageRecord* r, bool replace_existing) {
   std::vector<std::string> argv{JoinPath(bin_dir_, def.ExecutableName()), "--config", config_path, "--output",
                                 run_dir};
   for (const auto& [up, key] : r->upstream) argv.push_back("--input=" + up + "=" + EntryDir(up, key));
-  argv.push_back("--threads=" + std::to_string(config_.pipeline().threads));
+  const PipelineOptions& pipeline = config_.pipeline();
+  const bool on_slurm = pipeline.executor == "slurm";
+  argv.push_back("--threads=" + std::to_string(on_slurm ? pipeline.slurm_cpus_per_task : pipeline.threads));
 
   RLOG_INFO("{}: running ({})", r->name, ShortKey(r->key));
   const std::string started = NowIso();
@@ -290,7 +293,21 @@ bool Runner::RunOne(StageRecord* r, bool replace_existing) {
   AppendToFile(log_path, earlier_log + "==== " + started + " pipeline: " + (earlier_log.empty() ? "" : "new ") +
                              "run of stage " + r->name + " (key " + ShortKey(r->key) + ") ====\n");
   Timer timer;
-  const ProcessResult result = RunProcess(argv);
+  ProcessResult result;
+  if (on_slurm) {
+    SlurmStageWork work;
+    work.stage = r->name;
+    work.argv = argv;
+    work.output_dir = run_dir;
+    work.shard_steps = def.shard_steps ? def.shard_steps(config_) : 0;
+    SlurmOptions slurm;
+    slurm.shards = pipeline.slurm_shards;
+    slurm.cpus_per_task = pipeline.slurm_cpus_per_task;
+    slurm.sbatch_args = pipeline.slurm_sbatch_args;
+    result = RunOnSlurm(work, slurm);  // peak memory is not measured on the cluster
+  } else {
+    result = RunProcess(argv);
+  }
   r->seconds = timer.Seconds();
   r->peak_memory_mib = result.peak_memory_mib;
   if (!result.ok() && InterruptSignal() != 0) {

@@ -28,10 +28,10 @@ std::vector<StageDef> TestStages() {
     return [name] { return std::make_unique<TypedStageOptions<TestStageOptions>>(name); };
   };
   std::vector<StageDef> s;
-  s.push_back({{"alpha", "first", 1}, "test_stage_alpha", {}, make("alpha"), nullptr});
-  s.push_back({{"beta", "second", 1}, "test_stage_beta", {"alpha"}, make("beta"), nullptr});
-  s.push_back({{"gamma", "sibling", 1}, "test_stage_gamma", {"alpha"}, make("gamma"), nullptr});
-  s.push_back({{"delta", "join", 1}, "test_stage_delta", {"beta", "gamma"}, make("delta"), nullptr});
+  s.push_back({{"alpha", "first", 1}, "test_stage_alpha", {}, make("alpha"), nullptr, nullptr});
+  s.push_back({{"beta", "second", 1}, "test_stage_beta", {"alpha"}, make("beta"), nullptr, nullptr});
+  s.push_back({{"gamma", "sibling", 1}, "test_stage_gamma", {"alpha"}, make("gamma"), nullptr, nullptr});
+  s.push_back({{"delta", "join", 1}, "test_stage_delta", {"beta", "gamma"}, make("delta"), nullptr, nullptr});
   return s;
 }
 

@@ -57,6 +57,9 @@ struct StageDef {
   std::function<std::unique_ptr<StageOptionsHolder>()> make_options;
   // Why the stage does not run for this config (nullopt: it runs).
   std::function<std::optional<std::string>(const ResolvedConfig&)> skip_reason;
+  // Passes of per-photo work the executable can run split into shards (--shard/--step, StageInfo::shardable);
+  // null or 0: the stage runs whole.
+  std::function<int(const ResolvedConfig&)> shard_steps;
 
   const std::string& name() const { return info.name; }
   std::string ExecutableName() const { return executable.empty() ? info.name : executable; }
@@ -67,6 +70,10 @@ struct PipelineOptions {
   std::string workspace;  // Folder for the cache, summary and report.
   int threads = 0;        // Worker threads per stage; 0 uses all cores.
   double min_free_gib = 1.0;  // Warn before a stage when the workspace disk has less free space.
+  std::string executor = "local";  // local: stages run here; slurm: as Slurm jobs (pipeline/slurm.h).
+  int slurm_shards = 16;           // Tasks per job array of a per-photo pass.
+  int slurm_cpus_per_task = 2;     // CPUs each Slurm job asks for (and the stage's threads).
+  std::vector<std::string> slurm_sbatch_args;  // Added to every sbatch command.
 
   void Declare(OptionTable* t) {
     t->Add("workspace", &workspace,
@@ -75,6 +82,25 @@ struct PipelineOptions {
     t->Add("threads", &threads, "Worker threads per stage; 0 uses all cores.").Min(0).NotInKey();
     t->Add("min_free_gib", &min_free_gib, "Warn before a stage when the workspace disk has less free space (GiB).")
         .Min(0)
+        .NotInKey();
+    t->Add("executor", &executor,
+           "Where stages run. local: as child processes on this machine. slurm: as Slurm batch jobs (sbatch), "
+           "the per-photo passes of mvs, linearize, observe and relight as job arrays; needs the workspace and the "
+           "build's bin/ folder on a file system every node sees. Results and cache keys equal a local run's.")
+        .Choices({"local", "slurm"})
+        .NotInKey();
+    t->Add("slurm_shards", &slurm_shards,
+           "executor slurm: tasks per job array, each doing every N-th photo of a pass. Raise it toward the number "
+           "of photos when the cluster has more free CPUs than shards × slurm_cpus_per_task.")
+        .Min(1)
+        .NotInKey();
+    t->Add("slurm_cpus_per_task", &slurm_cpus_per_task,
+           "executor slurm: CPUs every job asks for (--cpus-per-task); the stage uses that many threads.")
+        .Min(1)
+        .NotInKey();
+    t->Add("slurm_sbatch_args", &slurm_sbatch_args,
+           "executor slurm: arguments added to every sbatch command, one per list item, e.g. "
+           "[\"--partition=cpu\", \"--time=04:00:00\", \"--mem=8G\"].")
         .NotInKey();
   }
   void Check() const {}

@@ -49,6 +49,11 @@ std::function<std::unique_ptr<StageOptionsHolder>()> Make(const StageInfo& info)
 }
 
 using SkipFn = std::function<std::optional<std::string>(const ResolvedConfig&)>;
+using ShardFn = std::function<int(const ResolvedConfig&)>;
+// A stage whose per-photo work is one pass.
+ShardFn OnePass() {
+  return [](const ResolvedConfig&) { return 1; };
+}
 
 }  // namespace
 
@@ -60,11 +65,12 @@ const std::vector<StageDef>& AllStages() {
                  SkipFn([](const ResolvedConfig& c) -> std::optional<std::string> {
                    if (c.HasSection("synthesize")) return std::nullopt;
                    return "the config has no synthesize: section (photos come from ingest.images)";
-                 })});
+                 }),
+                 nullptr});
 #endif
-    s.push_back({kIngestStage, "", {"synthesize"}, Make<IngestOptions>(kIngestStage), nullptr});
+    s.push_back({kIngestStage, "", {"synthesize"}, Make<IngestOptions>(kIngestStage), nullptr, nullptr});
 #ifdef RELIGHT_HAVE_SFM
-    s.push_back({kSfmStage, "", {"ingest"}, Make<SfmOptions>(kSfmStage), nullptr});
+    s.push_back({kSfmStage, "", {"ingest"}, Make<SfmOptions>(kSfmStage), nullptr, nullptr});
 #endif
 #ifdef RELIGHT_HAVE_MVS
     s.push_back({kMvsStage, "", {"sfm"}, Make<MvsOptions>(kMvsStage),
@@ -74,41 +80,43 @@ const std::vector<StageDef>& AllStages() {
                    if (source != "mvs") return "mesh.source is '" + source + "', so no dense reconstruction is needed";
 #endif
                    return std::nullopt;
-                 })});
+                 }),
+                 ShardFn([](const ResolvedConfig& c) { return MvsShardSteps(c.Get<MvsOptions>("mvs")); })});
 #endif
 #ifdef RELIGHT_HAVE_MESH
-    s.push_back({kMeshStage, "", {"ingest", "sfm", "mvs"}, Make<MeshOptions>(kMeshStage), nullptr});
+    s.push_back({kMeshStage, "", {"ingest", "sfm", "mvs"}, Make<MeshOptions>(kMeshStage), nullptr, nullptr});
 #endif
 #ifdef RELIGHT_HAVE_LINEARIZE
-    s.push_back({kLinearizeStage, "", {"ingest"}, Make<LinearizeOptions>(kLinearizeStage), nullptr});
+    s.push_back({kLinearizeStage, "", {"ingest"}, Make<LinearizeOptions>(kLinearizeStage), nullptr, OnePass()});
 #endif
 #ifdef RELIGHT_HAVE_VISIBILITY
-    s.push_back({kVisibilityStage, "", {"mesh"}, Make<VisibilityOptions>(kVisibilityStage), nullptr});
+    s.push_back({kVisibilityStage, "", {"mesh"}, Make<VisibilityOptions>(kVisibilityStage), nullptr, nullptr});
 #endif
 #ifdef RELIGHT_HAVE_OBSERVE
-    s.push_back({kObserveStage, "", {"sfm", "mesh", "linearize"}, Make<ObserveOptions>(kObserveStage), nullptr});
+    s.push_back({kObserveStage, "", {"sfm", "mesh", "linearize"}, Make<ObserveOptions>(kObserveStage), nullptr,
+                 OnePass()});
 #endif
 #ifdef RELIGHT_HAVE_INVERSE
     s.push_back({kInverseStage, "", {"ingest", "mesh", "visibility", "observe"}, Make<InverseOptions>(kInverseStage),
-                 nullptr});
+                 nullptr, nullptr});
 #endif
 #ifdef RELIGHT_HAVE_RELIGHT
     s.push_back({kRelightStage, "", {"ingest", "sfm", "mesh", "visibility", "inverse"},
-                 Make<RelightOptions>(kRelightStage), nullptr});
+                 Make<RelightOptions>(kRelightStage), nullptr, OnePass()});
 #endif
 #ifdef RELIGHT_HAVE_EVALUATE
     s.push_back({kEvaluateStage,
                  "",
                  {"ingest", "sfm", "mesh", "linearize", "observe", "visibility", "inverse", "relight"},
                  Make<EvaluateOptions>(kEvaluateStage),
-                 nullptr});
+                 nullptr, nullptr});
 #endif
 #ifdef RELIGHT_HAVE_REPORT
     s.push_back({kReportStage,
                  "",
                  {"ingest", "sfm", "mesh", "linearize", "observe", "inverse", "relight", "evaluate"},
                  Make<ReportOptions>(kReportStage),
-                 nullptr});
+                 nullptr, nullptr});
 #endif
     return s;
   }();

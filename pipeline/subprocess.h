@@ -24,6 +24,14 @@ struct ProcessResult {
 // Runs `argv[0]` with arguments, waits for it. Throws UserError if it cannot start.
 ProcessResult RunProcess(const std::vector<std::string>& argv);
 
+// Output of a short command (sbatch, squeue): exit code (127: could not start), stdout, stderr.
+struct CommandOutput {
+  int exit_code = -1;
+  std::string out, err;
+};
+// Runs `argv` (looked up on PATH, no shell) and collects its output. Never throws.
+CommandOutput RunCommandCapture(const std::vector<std::string>& argv);
+
 // Folder of the running executable (/proc/self/exe).
 std::string ExecutableDir();
 

@@ -21,7 +21,9 @@
 // over the whole sphere against 0.828 with light_prior smooth; bound 0.78, so a prior that stops filling
 // the unseen directions with daylight fails.
 //
-// Set RELIGHT_CHAIN_WORKSPACE to keep the workspace (and reuse it across runs).
+// Set RELIGHT_CHAIN_WORKSPACE to keep the workspace (and reuse it across runs). RELIGHT_CHAIN_EXPORT names a
+// folder the test runs in from scratch and leaves behind: ctest sets it for slurm_integration_test, which
+// compares its Slurm run with this local one.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -49,7 +51,12 @@ TEST(ChainIntegrationTest, SyntheticTinyEndToEndIsAccurateAndCached) {
   setenv("RELIGHT_PROGRESS", "plain", 1);
   testing::TempDir temp;
   const char* keep = std::getenv("RELIGHT_CHAIN_WORKSPACE");
-  const std::string ws = keep != nullptr ? std::string(keep) : temp / "ws";
+  const char* exported = std::getenv("RELIGHT_CHAIN_EXPORT");
+  std::string ws = keep != nullptr ? std::string(keep) : temp / "ws";
+  if (exported != nullptr) {
+    ws = exported;
+    fs::remove_all(ws);
+  }
   const std::string config = testing::SourceDir() + "/configs/synthetic_tiny.yaml";
   const std::string pipeline = testing::BinDir() + "/pipeline ";
   std::string out;
@@ -114,7 +121,7 @@ TEST(ChainIntegrationTest, SyntheticTinyEndToEndIsAccurateAndCached) {
       << out;
   {
     const Json summary = ReadJsonFile(ws + "/summary.json");
-    for (const std::string& stage : {"sfm", "mvs", "visibility", "inverse"})
+    for (const char* stage : {"sfm", "mvs", "visibility", "inverse"})
       EXPECT_EQ(StageEntry(summary, stage).value("status", ""), "cached") << stage;
     const Json render = ReadJsonFile(ws + "/render_test/render_summary.json");
     EXPECT_EQ(render["convention"], "blender");

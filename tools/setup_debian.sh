@@ -16,6 +16,8 @@ packages=(
   chromium
   # Blender, for the test that imports the glTF export (modules/relight/gltf_blender_test.cc)
   blender
+  # Slurm and munge: pipeline.executor slurm and its test on a single-node cluster (tools/slurm_local_cluster.sh)
+  slurmctld slurmd slurm-client munge
   # libFuzzer and the sanitizers for the parser fuzz targets (fuzz/)
   clang libclang-rt-14-dev
 )

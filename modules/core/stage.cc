@@ -26,6 +26,10 @@ const std::string& StageContext::Input(const std::string& name) const {
   return it->second;
 }
 
+std::string ShardSpec::Describe() const {
+  return "step " + std::to_string(step) + ", shard " + std::to_string(index) + " of " + std::to_string(count);
+}
+
 std::string StageContext::OutputPath(const std::string& relative) const { return JoinPath(output_dir, relative); }
 
 namespace internal {
@@ -36,11 +40,20 @@ int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* t
   std::string config_path, output_dir, log_level = "info", print_options;
   std::vector<std::string> sets, inputs;
   int threads = 0;
+  std::string shard_text;
+  int step = 0;
   app.add_option("--config", config_path, "YAML config; this stage reads its '" + info.name + "' section");
   app.add_option("--set", sets, "Override an option: " + info.name + ".OPTION=VALUE (repeatable)");
   app.add_option("--input", inputs, "Upstream stage output: STAGE=DIR (repeatable)");
   app.add_option("--output", output_dir, "Folder to write the outputs into (created if missing)");
   app.add_option("--threads", threads, "Worker threads; 0 uses all cores")->check(CLI::NonNegativeNumber);
+  if (info.shardable) {
+    app.add_option("--shard", shard_text,
+                   "I/N: do only the per-photo work of items with index % N == I (0-based), and only of --step; "
+                   "an unsharded run afterwards writes the stage's summaries (the pipeline's slurm executor)");
+    app.add_option("--step", step, "Pass of the per-photo work a --shard run does (0-based)")
+        ->check(CLI::NonNegativeNumber);
+  }
   app.add_option("--log-level", log_level, "Console log level")
       ->check(CLI::IsMember({"debug", "info", "warning", "error"}));
   app.add_option("--print-options", print_options, "Print the option reference and exit")
@@ -59,12 +72,33 @@ int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* t
 
   StageContext ctx;
   ctx.threads = threads;
+  if (!shard_text.empty()) {
+    const size_t slash = shard_text.find('/');
+    try {
+      size_t used = 0;
+      ctx.shard.index = std::stoi(shard_text.substr(0, slash), &used);
+      ctx.shard.count = slash == std::string::npos ? 0 : std::stoi(shard_text.substr(slash + 1));
+    } catch (const std::exception&) {
+      ctx.shard.count = 0;
+    }
+    if (ctx.shard.count <= 0 || ctx.shard.index < 0 || ctx.shard.index >= ctx.shard.count) {
+      std::cerr << info.name << ": error: --shard '" << shard_text << "': expected I/N with 0 <= I < N\n";
+      return kExitUserError;
+    }
+    ctx.shard.step = step;
+  }
+  // Shards run at the same time in one folder: each reports and logs under shards/, and none may remove what
+  // another is writing (temporary files, error.txt).
+  const std::string shard_stem =
+      ctx.shard.active() ? "shards/step" + std::to_string(ctx.shard.step) + "_" + std::to_string(ctx.shard.index) : "";
+  const std::string error_name = ctx.shard.active() ? shard_stem + ".error.txt" : "error.txt";
+  const std::string log_name = ctx.shard.active() ? shard_stem + ".log" : "stage.log";
   auto fail = [&](int code, const std::string& raw_reason) {
     const std::string reason = PathText(raw_reason);
     // One line, for the orchestrator's summary and the user.
     if (!ctx.output_dir.empty()) {
       try {
-        WriteFileAtomic(JoinPath(ctx.output_dir, "error.txt"), reason + "\n");
+        WriteFileAtomic(JoinPath(ctx.output_dir, error_name), reason + "\n");
       } catch (...) {
       }
     }
@@ -84,11 +118,16 @@ int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* t
     }
     ctx.output_dir = fs::absolute(output_dir).lexically_normal().string();
     EnsureDir(ctx.output_dir);
-    RemoveTempFiles(ctx.output_dir);
+    if (ctx.shard.active()) {
+      EnsureDir(JoinPath(ctx.output_dir, "shards"));
+    } else {
+      RemoveTempFiles(ctx.output_dir);
+    }
     std::error_code ec;
-    fs::remove(JoinPath(ctx.output_dir, "error.txt"), ec);
-    InitLogging(info.name, JoinPath(ctx.output_dir, "stage.log"), ParseLogLevel(log_level));
-    InstallCrashHandler(info.name, JoinPath(ctx.output_dir, "stage.log"));
+    fs::remove(JoinPath(ctx.output_dir, error_name), ec);
+    InitLogging(info.name, JoinPath(ctx.output_dir, log_name), ParseLogLevel(log_level));
+    InstallCrashHandler(info.name, JoinPath(ctx.output_dir, log_name));
+    if (ctx.shard.active()) RLOG_INFO("{}: {}", info.name, ctx.shard.Describe());
 
     for (const auto& input : inputs) {
       const size_t eq = input.find('=');

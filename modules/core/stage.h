@@ -29,6 +29,23 @@ struct StageInfo {
   std::string name;         // "synthesize"; also the config section and executable name
   std::string description;  // one line, shown by `pipeline stages` and --help
   int version = 1;          // bumped when the algorithm changes results; enters the cache key
+  // Accepts --shard/--step: its per-photo work can be split over processes (pipeline.executor: slurm).
+  bool shardable = false;
+};
+
+// One process's part of a stage's per-item work (photos, views), when the work is split over a job array.
+// Step `step` of the stage's barrier-separated passes, items with index % count == index. A sharded run
+// writes the per-item files of its items and nothing else; a later unsharded run of the same output folder
+// finds every item done and writes the stage's summary outputs.
+struct ShardSpec {
+  int index = 0;
+  int count = 0;  // 0: not sharded, the whole stage
+  int step = 0;
+
+  bool active() const { return count > 0; }
+  bool Owns(size_t item) const { return count == 0 || static_cast<int>(item % count) == index; }
+  // "step 0, shard 3 of 8".
+  std::string Describe() const;
 };
 
 // What a running stage knows besides its options.
@@ -36,6 +53,7 @@ struct StageContext {
   std::string output_dir;                     // absolute; exists when the stage starts
   std::map<std::string, std::string> inputs;  // upstream stage name -> its output folder
   int threads = 0;                            // 0: all cores
+  ShardSpec shard;                            // inactive unless --shard was given
 
   bool HasInput(const std::string& name) const { return inputs.count(name) > 0; }
   // The output folder of upstream stage `name`; throws UserError when it was not given.

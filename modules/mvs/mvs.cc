@@ -177,7 +177,13 @@ size_t AddPointsFromDepthMaps(const MvsWorkspace& workspace, const std::vector<S
 
 }  // namespace
 
-std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& workspace, MvsSummary* summary) {
+std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& workspace, MvsSummary* summary,
+                             const ShardSpec& shard) {
+  const int num_passes = MvsShardSteps(options);
+  if (shard.active() && shard.step >= num_passes) {
+    RELIGHT_USER_ERROR() << "mvs --step " << shard.step << ": these options have " << num_passes
+                         << " passes of depth maps (0 to " << num_passes - 1 << ")";
+  }
   const Reconstruction model = Reconstruction::Read(workspace.SparseDir());
   std::vector<StereoView> views;
   for (const auto& [id, image] : model.images) views.push_back(MakeStereoView(model, image, options.max_image_size));
@@ -209,7 +215,7 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
                          << "or too few are registered; add photos, or lower mvs.min_shared_points / "
                          << "mvs.min_triangulation_angle_deg";
   }
-  WritePatchMatchConfig(workspace, views, plans);
+  if (!shard.active()) WritePatchMatchConfig(workspace, views, plans);
   summary->num_reference_images = static_cast<int>(refs.size());
   summary->reference_megapixels = 0;
   for (int r : refs) summary->reference_megapixels += views[r].width * double(views[r].height) * 1e-6;
@@ -230,12 +236,20 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
   };
   const std::string final_type = options.geom_consistency ? kGeometric : kPhotometric;
 
-  // Runs `compute` for every reference image whose `type` maps are missing (resume) and writes them.
-  const auto run_pass = [&](const std::string& type, const std::string& label,
+  // The reference images this process computes: all, or a shard's.
+  std::vector<int> own_refs;
+  for (size_t k = 0; k < refs.size(); ++k) {
+    if (shard.Owns(k)) own_refs.push_back(refs[k]);
+  }
+  // Pass `pass` (0-based, of num_passes) runs here: every pass, or the shard's one.
+  const auto runs = [&](int pass) { return !shard.active() || shard.step == pass; };
+  // Runs `compute` for every own reference image whose `type` maps are missing (resume) and writes them. The
+  // report starts from the `previous` pass's (written by whichever process ran it: a shard, an earlier run).
+  const auto run_pass = [&](const std::string& type, const std::string& previous, const std::string& label,
                             const std::function<DepthNormalMap(int r, MvsImageReport* report)>& compute) {
-    Progress progress(label, static_cast<int64_t>(refs.size()));
+    Progress progress(label, static_cast<int64_t>(own_refs.size()));
     int done = 0, reused = 0;
-    for (int r : refs) {
+    for (int r : own_refs) {
       ++done;
       MvsImageReport& report = summary->images[r];
       const std::string report_path = workspace.ReportPath(views[r].name, type);
@@ -249,18 +263,20 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
         progress.Advance();
         continue;
       }
+      const std::string previous_report = previous.empty() ? "" : workspace.ReportPath(views[r].name, previous);
+      if (!previous_report.empty() && fs::exists(previous_report)) ReportFromJson(ReadJsonFile(previous_report), &report);
       Timer timer;
       const DepthNormalMap map = compute(r, &report);
       workspace.WriteMaps(views[r], map, type);
       EnsureDir(fs::path(report_path).parent_path().string());
       WriteJsonAtomic(report_path, ReportToJson(report));
       RLOG_INFO("[{}/{}] {} {}: {}x{}, {} sources, cost {:.3f}, {:.0f}% of pixels with depth, {:.1f}s", done,
-                refs.size(), label, views[r].name, views[r].width, views[r].height, plans[r].sources.size(),
+                own_refs.size(), label, views[r].name, views[r].width, views[r].height, plans[r].sources.size(),
                 report.mean_cost, 100 * report.valid_fraction, timer.Seconds());
       progress.Advance();
     }
     // A resumed run says what it did not recompute.
-    if (reused > 0) RLOG_INFO("{}: {} of {} images reused from an earlier run", label, reused, refs.size());
+    if (reused > 0) RLOG_INFO("{}: {} of {} images reused from an earlier run", label, reused, own_refs.size());
   };
   // The `type` maps of the sources of `r` (nullptr where missing), owned by `storage`.
   const auto source_maps = [&](int r, const std::string& type, std::vector<std::unique_ptr<DepthNormalMap>>* storage,
@@ -273,8 +289,8 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
     }
   };
 
-  // Pass 1: photometric (filtered right away when it is the last pass).
-  run_pass(kPhotometric, "photometric depth maps", [&](int r, MvsImageReport* report) {
+  // Pass 0: photometric (filtered right away when it is the last pass).
+  if (runs(0)) run_pass(kPhotometric, "", "photometric depth maps", [&](int r, MvsImageReport* report) {
     const PatchMatchProblem problem = problem_for(r);
     PatchMatchStats stats;
     DepthNormalMap map = RunPatchMatch(options, problem, /*geometric=*/false, options.num_iterations, nullptr, 0,
@@ -286,20 +302,21 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
     return map;
   });
   if (options.geom_consistency) {
-    // Pass 2: PatchMatch with the reprojection error against the sources' maps, one iteration at a time: each
+    // Passes 1..n: PatchMatch with the reprojection error against the sources' maps, one iteration at a time: each
     // starts from the image's own maps of the iteration before and matches against its sources' maps of the
     // iteration before (the photometric ones first). Sources that improved in one iteration so help the next;
     // iterating against fixed photometric maps instead gains little.
     const int n = options.geom_iterations;
-    const bool last_done = std::all_of(refs.begin(), refs.end(), [&](int r) {
+    const bool last_done = !shard.active() && std::all_of(refs.begin(), refs.end(), [&](int r) {
       return workspace.HasMaps(views[r].name, kGeometricUnfiltered) &&
              fs::exists(workspace.ReportPath(views[r].name, kGeometricUnfiltered));
     });
     for (int k = last_done ? n : 1; k <= n; ++k) {
+      if (!runs(k)) continue;
       const std::string previous = k == 1 ? std::string(kPhotometric) : GeometricIterationType(k - 1, n);
       const std::string label = n == 1 ? std::string("geometric depth maps")
                                        : "geometric depth maps " + std::to_string(k) + "/" + std::to_string(n);
-      run_pass(GeometricIterationType(k, n), label, [&](int r, MvsImageReport* report) {
+      run_pass(GeometricIterationType(k, n), previous, label, [&](int r, MvsImageReport* report) {
         PatchMatchProblem problem = problem_for(r);
         std::vector<std::unique_ptr<DepthNormalMap>> storage;
         source_maps(r, previous, &storage, &problem);
@@ -313,11 +330,8 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
         return map;
       });
     }
-    for (int k = 1; k < n; ++k) {
-      for (int r : refs) workspace.RemoveMaps(views[r].name, GeometricIterationType(k, n));
-    }
-    // Pass 3: keep pixels that the sources' geometric maps confirm.
-    run_pass(kGeometric, "filtering", [&](int r, MvsImageReport* report) {
+    // Pass n + 1: keep pixels that the sources' geometric maps confirm.
+    if (runs(n + 1)) run_pass(kGeometric, kGeometricUnfiltered, "filtering", [&](int r, MvsImageReport* report) {
       PatchMatchProblem problem = problem_for(r);
       std::vector<std::unique_ptr<DepthNormalMap>> storage;
       source_maps(r, kGeometricUnfiltered, &storage, &problem);
@@ -325,7 +339,14 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
       report->valid_fraction = FilterDepthMap(options, problem, true, &map).valid_after;
       return map;
     });
+    // The maps of the earlier iterations, once no pass reads them.
+    if (!shard.active()) {
+      for (int k = 1; k < n; ++k) {
+        for (int r : refs) workspace.RemoveMaps(views[r].name, GeometricIterationType(k, n));
+      }
+    }
   }
+  if (shard.active()) return final_type;  // the unsharded run that follows densifies and writes fusion.cfg
 
   if (model.points3d.size() <= kMinSparsePoints) {
     Reconstruction densified = model;
@@ -339,7 +360,8 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
   return final_type;
 }
 
-MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir) {
+MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir,
+                  const ShardSpec& shard) {
   Timer total;
   MvsSummary summary;
   summary.engine = options.engine;
@@ -349,6 +371,13 @@ MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const s
   summary.step_seconds.emplace_back("workspace", step.Seconds());
 
   step.Restart();
+  if (shard.active()) {
+    if (MvsShardSteps(options) == 0) {
+      RELIGHT_USER_ERROR() << "mvs.engine: " << options.engine << " cannot be split into shards; run it whole";
+    }
+    ComputeDepthMaps(options, workspace, &summary, shard);
+    return summary;  // the unsharded run that follows fuses and meshes
+  }
   std::string input_type;
   if (options.engine == "colmap") {
     // COLMAP picks its own sources (__auto__) and fuses every image.

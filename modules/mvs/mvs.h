@@ -62,12 +62,16 @@ struct MvsSummary {
 
 // Our PatchMatch on every registered image of `workspace` (engine patchmatch), resuming finished images.
 // Writes the maps, patch-match.cfg, fusion.cfg and per-image reports; fills `summary->images`.
-// Returns the map type fusion reads ("geometric" or "photometric").
-std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& workspace, MvsSummary* summary);
+// Returns the map type fusion reads ("geometric" or "photometric"). With an active `shard`: only pass
+// `shard.step` (MvsShardSteps) of the shard's reference images, and no configuration files.
+std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& workspace, MvsSummary* summary,
+                             const ShardSpec& shard = {});
 
 // Runs the stage on an sfm output folder, writing into `output_dir` (exists). The depth maps use the TBB
-// threads the caller allows; COLMAP's fusion and Poisson run on one thread (colmap_tools.h).
-MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir);
+// threads the caller allows; COLMAP's fusion and Poisson run on one thread (colmap_tools.h). With an active
+// `shard`, the shard's depth maps of one pass only (ComputeDepthMaps), no fusion, meshing or summary.
+MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir,
+                  const ShardSpec& shard = {});
 
 // Writes mvs_summary.json.
 void WriteMvsSummary(const MvsSummary& summary, const std::string& path);

@@ -12,7 +12,8 @@
 namespace relight {
 
 inline const StageInfo kMvsStage{
-    "mvs", "Dense geometry: CPU PatchMatch multi-view stereo, COLMAP stereo fusion and Poisson meshing", 7};
+    "mvs", "Dense geometry: CPU PatchMatch multi-view stereo, COLMAP stereo fusion and Poisson meshing", 7,
+    /*shardable=*/true};
 
 struct MvsOptions {
   // --- engine and resolution
@@ -157,5 +158,12 @@ struct MvsOptions {
     }
   }
 };
+
+// Passes of per-image depth maps a sharded run (--shard, --step) can be split into, each reading the maps
+// of the pass before: photometric, each geometric iteration, filtering. 0: the engine cannot be sharded.
+inline int MvsShardSteps(const MvsOptions& o) {
+  if (o.engine != "patchmatch") return 0;
+  return o.geom_consistency ? o.geom_iterations + 2 : 1;
+}
 
 }  // namespace relight

@@ -76,6 +76,8 @@ void MirrorTree(const std::string& from, const std::string& to) {
       fs::remove(target, ec);
     }
     fs::create_hard_link(entry.path(), target, ec);
+    std::error_code same_ec;
+    if (ec && fs::equivalent(target, entry.path(), same_ec)) continue;  // linked by a shard running beside us
     if (ec) {
       AtomicFile copy(target.string());
       fs::copy_file(entry.path(), copy.temp_path(), fs::copy_options::overwrite_existing, ec);

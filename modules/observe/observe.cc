@@ -309,7 +309,7 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
 }
 
 ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_dir, const std::string& mesh_dir,
-                          const std::string& linearize_dir, const std::string& output_dir) {
+                          const std::string& linearize_dir, const std::string& output_dir, const ShardSpec& shard) {
   Timer timer;
   ObserveSummary summary;
   const Reconstruction model = Reconstruction::Read(JoinPath(sfm_dir, "sparse"));
@@ -345,8 +345,11 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
   std::vector<ObservedPhoto> photos(images.size());
   std::vector<std::vector<Observation>> per_photo(images.size());
   std::vector<int64_t> clipped_per_photo(images.size(), -1);  // -1: observed by an earlier, killed run
-  Progress progress("observe photos", summary.photos);
+  int64_t owned = 0;
+  for (size_t i = 0; i < images.size(); ++i) owned += shard.Owns(i);
+  Progress progress("observe photos", owned);
   for (size_t i = 0; i < images.size(); ++i) {
+    if (!shard.Owns(i)) continue;
     const ImageRecord& im = *images[i];
     const std::string stem = fs::path(im.name).stem().string();
     ObservedPhoto& p = photos[i];
@@ -368,9 +371,15 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
       p.camera.width = radiance.width;
       p.camera.height = radiance.height;
     }
+    // The clipped-footprint count, written before the observations, which mark the photo as done.
+    const std::string clipped_path = JoinPath(output_dir, "per_photo/" + std::to_string(i) + "_" + stem + ".json");
     if (fs::exists(cache)) {
-      per_photo[i] = ReadObservations(cache).records;  // finished by an earlier, killed run
+      per_photo[i] = ReadObservations(cache).records;  // finished by an earlier, killed run or by a shard
       ++summary.reused_photos;
+      if (fs::exists(clipped_path)) {
+        clipped_per_photo[i] = ReadJsonFile(clipped_path).value("clipped_footprints", int64_t{-1});
+        if (clipped_per_photo[i] > 0) summary.clipped_footprints += static_cast<size_t>(clipped_per_photo[i]);
+      }
     } else {
       const Image confidence = ReadImage(JoinPath(linearize_dir, "confidence/" + stem + ".exr"));
       PhotoView view{p.camera, im, &radiance, &confidence};
@@ -393,6 +402,7 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
       per_photo[i] = ObservePhoto(mesh, footprint, caster, view, p.index, options, &clipped);
       clipped_per_photo[i] = static_cast<int64_t>(clipped);
       summary.clipped_footprints += clipped;
+      WriteJsonAtomic(clipped_path, Json{{"clipped_footprints", clipped}});
       ObservationSet one{static_cast<uint32_t>(images.size()), static_cast<uint32_t>(mesh.num_vertices()), per_photo[i]};
       WriteObservations(cache, one);
     }
@@ -404,6 +414,7 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
     progress.Advance();
   }
   progress.Finish();
+  if (shard.active()) return summary;  // the unsharded run that follows gathers the photos
 
   ObservationSet all;
   all.num_photos = static_cast<uint32_t>(images.size());

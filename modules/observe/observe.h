@@ -85,7 +85,7 @@ struct ObserveSummary {
   int reused_photos = 0;           // finished by an earlier, killed run
   size_t observations = 0;
   size_t unobserved_vertices = 0;  // vertices with no exact observation (lower bounds do not count)
-  size_t clipped_footprints = 0;   // footprints over max_distrusted_share (photos observed in this run)
+  size_t clipped_footprints = 0;   // footprints over max_distrusted_share
   size_t lower_bounds = 0;         // of those, kept as lower bounds (all photos)
   size_t lower_bound_channels = 0; // their channels that are bounds (the others measure)
   double seconds = 0;
@@ -93,8 +93,10 @@ struct ObserveSummary {
 
 // Runs the stage: reads <sfm>/sparse, <mesh>/mesh.ply (+ occluders.ply),
 // <linearize>/linear and confidence; writes observations.bin, photos.json,
-// coverage.json into `output_dir`.
+// coverage.json into `output_dir`. With an active `shard` (one pass: step 0) only that shard's photos go
+// into per_photo/, and nothing else is written.
 ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_dir, const std::string& mesh_dir,
-                          const std::string& linearize_dir, const std::string& output_dir);
+                          const std::string& linearize_dir, const std::string& output_dir,
+                          const ShardSpec& shard = {});
 
 }  // namespace relight

@@ -11,7 +11,8 @@
 namespace relight {
 
 inline const StageInfo kObserveStage{
-    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 8};
+    "observe", "Per photo and vertex: linear colour, local view direction and confidence (Embree visibility)", 8,
+    /*shardable=*/true};
 
 struct ObserveOptions {
   double grazing_min_deg = 80.0;      // View angles beyond this (from the normal) get confidence 0.

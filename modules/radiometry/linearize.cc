@@ -87,7 +87,7 @@ LinearImage Linearize(const Image& encoded, bool is_float, const LinearizeOption
 }
 
 LinearizeSummary RunLinearize(const LinearizeOptions& options, const std::string& ingest_dir,
-                              const std::string& output_dir) {
+                              const std::string& output_dir, const ShardSpec& shard) {
   Timer timer;
   const IngestSummary manifest = ReadIngestManifest(ingest_dir);
   if (manifest.photos.empty()) RELIGHT_USER_ERROR() << "'" << ingest_dir << "/manifest.json' lists no photos";
@@ -121,8 +121,11 @@ LinearizeSummary RunLinearize(const LinearizeOptions& options, const std::string
   RLOG_INFO("exposure: {}", summary.exposure_note);
 
   std::atomic<int> reused{0};
-  Progress progress("linearize photos", summary.photos);
+  int64_t owned = 0;
+  for (size_t i = 0; i < manifest.photos.size(); ++i) owned += shard.Owns(i);
+  Progress progress("linearize photos", owned);
   tbb::parallel_for(size_t(0), manifest.photos.size(), [&](size_t i) {
+    if (!shard.Owns(i)) return;
     const IngestedPhoto& photo = manifest.photos[i];
     const std::string stem = fs::path(photo.file).stem().string();
     const std::string linear_path = JoinPath(output_dir, "linear/" + stem + ".exr");
@@ -165,6 +168,7 @@ LinearizeSummary RunLinearize(const LinearizeOptions& options, const std::string
   });
   progress.Finish();
   summary.reused = reused.load();
+  if (shard.active()) return summary;  // the unsharded run that follows writes the summary
 
   Json j;
   j["photos"] = Json::array();

@@ -49,7 +49,8 @@ struct LinearizeSummary {
 // `overexposed_linear`: the linear radiance (after exposure normalisation) at
 // and above which a channel of linear/ was over-exposed, null for float inputs;
 // `observe` uses it to tell which channels of a clipped footprint clipped.
+// With an active `shard` (one pass: step 0) only that shard's photos, and no summary.
 LinearizeSummary RunLinearize(const LinearizeOptions& options, const std::string& ingest_dir,
-                              const std::string& output_dir);
+                              const std::string& output_dir, const ShardSpec& shard = {});
 
 }  // namespace relight

@@ -10,7 +10,7 @@
 namespace relight {
 
 inline const StageInfo kLinearizeStage{
-    "linearize", "Photos to linear radiance (inverse sRGB/gamma) with per-pixel confidence", 2};
+    "linearize", "Photos to linear radiance (inverse sRGB/gamma) with per-pixel confidence", 2, /*shardable=*/true};
 
 struct LinearizeOptions {
   std::string transfer = "srgb";      // Transfer curve of 8/16-bit photos: srgb, gamma or linear.

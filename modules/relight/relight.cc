@@ -397,7 +397,8 @@ std::vector<EnvMap> LoadRelightEnvmaps(const std::vector<std::string>& paths) {
   return maps;
 }
 
-RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, const std::string& output_dir) {
+RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, const std::string& output_dir,
+                          const ShardSpec& shard) {
   o.Check();
   Timer total;
   RelightSummary summary;
@@ -611,9 +612,9 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
     }
   }
 
-  // The export for Blender and other tools (relight/gltf_export.h): cheap, rewritten on every run.
-  summary.exported = WriteExport(output_dir, model.mesh, model.reflectance, photos);
-  RLOG_INFO("export: {} ({} vertices, {} triangles, {} primitives), {} environment maps, albedo scale {:.4g}",
+  // The export for Blender and other tools (relight/gltf_export.h): cheap, rewritten on every whole run.
+  if (!shard.active()) summary.exported = WriteExport(output_dir, model.mesh, model.reflectance, photos);
+  if (!shard.active()) RLOG_INFO("export: {} ({} vertices, {} triangles, {} primitives), {} environment maps, albedo scale {:.4g}",
             summary.exported.model, summary.exported.vertices, summary.exported.triangles, summary.exported.primitives,
             summary.exported.envmaps.size(), summary.exported.albedo_scale);
 
@@ -628,7 +629,9 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
     if (lighting.contains("env_resolution")) env_resolution = lighting.at("env_resolution").get<int>();
   }
   // The interactive viewer (relight/viewer_export.h), under each photo's recovered map and each new map.
-  if (have_visibility) {
+  if (shard.active()) {
+    // a shard renders only
+  } else if (have_visibility) {
     std::vector<std::pair<std::string, EnvMap>> maps;
     for (const RecoveredPhoto& photo : photos) maps.emplace_back(Stem(photo.name), photo.envmap);
     for (size_t m = 0; m < file_lights.size(); ++m) maps.emplace_back(file_lights[m].first, file_maps[m]);
@@ -645,10 +648,13 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   // Render what is missing.
   for (const auto& dir : {"rerender", "heldout", "novel", "albedo", "material", "turntable"})
     EnsureDir(JoinPath(output_dir, std::string("renders/") + dir));
+  // A rendered view's radiance and mask are its result; its PNG is written from them (below) when missing.
   auto done = [&](const Job& job) {
-    return (job.flat || Exists(JoinPath(output_dir, job.record.exr))) && Exists(JoinPath(output_dir, job.record.png)) &&
-           Exists(JoinPath(output_dir, job.record.mask));
+    return (job.flat || Exists(JoinPath(output_dir, job.record.exr))) && Exists(JoinPath(output_dir, job.record.mask));
   };
+  // A shard renders the radiance of its own views (every shard-th job); the whole run that follows writes
+  // every PNG, so a shared exposure (turntable) is the same as in one run.
+  auto skipped = [&](size_t k) { return shard.active() && (jobs[k].flat || !shard.Owns(k)); };
   RenderOptions base;
   base.pixel_samples_per_axis = o.pixel_samples_per_axis;
   base.light_samples = o.light_samples;
@@ -662,7 +668,7 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   int64_t tiles = 0;
   for (size_t k = 0; k < jobs.size(); ++k) {
     const Job& job = jobs[k];
-    if (job.flat || done(job)) continue;
+    if (job.flat || done(job) || skipped(k)) continue;
     tiles += use_transport ? TransportRenderer::NumBands(job.record.camera.camera, transport_options)
                            : NumTiles(job.record.camera.camera, base);
     last_use[job.lighting.get()] = k;
@@ -681,6 +687,7 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   {
     Progress progress("relight renders", std::max<int64_t>(tiles, 1));
     for (size_t k = 0; k < jobs.size(); ++k) {
+      if (skipped(k)) continue;
       Job& job = jobs[k];
       RenderRecord& r = job.record;
       const std::string exr = JoinPath(output_dir, r.exr), png = JoinPath(output_dir, r.png),
@@ -724,6 +731,7 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
         WritePng(mask_path, mask);
         ++summary.rendered;
       }
+      if (shard.active()) continue;
       double exposure = PercentileExposure(radiance, CountMask(mask) > 0 ? &mask : nullptr, o.tonemap_percentile);
       if (job.shared_exposure) {
         if (turntable_exposure < 0) turntable_exposure = exposure;
@@ -735,6 +743,8 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
                               r.camera.camera.height, r.light, r.seconds));
     }
   }
+
+  if (shard.active()) return summary;  // the whole run that follows writes the PNGs, animation and summary
 
   // Turntable animation.
   std::vector<Image> frames;

@@ -122,7 +122,9 @@ struct RelightInputs {
 };
 
 // Runs the stage into `output_dir` (which exists).
-RelightSummary RunRelight(const RelightOptions& options, const RelightInputs& inputs, const std::string& output_dir);
+// With an active `shard` (one pass: step 0): only the radiance and masks of the shard's views, nothing else.
+RelightSummary RunRelight(const RelightOptions& options, const RelightInputs& inputs, const std::string& output_dir,
+                          const ShardSpec& shard = {});
 
 // Reads the maps of relight.envmaps (before anything is rendered). Throws
 // UserError naming the entry when it is missing, a folder, unreadable, not

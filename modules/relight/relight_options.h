@@ -13,7 +13,8 @@
 namespace relight {
 
 inline const StageInfo kRelightStage{
-    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 7};
+    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 7,
+    /*shardable=*/true};
 
 struct RelightOptions {
   // What to render.
