@@ -68,7 +68,7 @@ struct StageDef {
 // Options of the orchestrator itself (config section `pipeline`).
 struct PipelineOptions {
   std::string workspace;  // Folder for the cache, summary and report.
-  int threads = 0;        // Worker threads per stage; 0 uses all cores.
+  int threads = 0;        // Worker threads per stage (executor local); 0 uses all cores.
   double min_free_gib = 1.0;  // Warn before a stage when the workspace disk has less free space.
   std::string executor = "local";  // local: stages run here; slurm: as Slurm jobs (pipeline/slurm.h).
   int slurm_shards = 16;           // Tasks per job array of a per-photo pass.
@@ -79,7 +79,10 @@ struct PipelineOptions {
     t->Add("workspace", &workspace,
            "Workspace folder (cache, summary.json, report). Empty: ./workspace/<config name>.")
         .OutputPath();
-    t->Add("threads", &threads, "Worker threads per stage; 0 uses all cores.").Min(0).NotInKey();
+    t->Add("threads", &threads,
+           "Worker threads per stage (executor local); 0 uses all cores. Slurm jobs use slurm_cpus_per_task.")
+        .Min(0)
+        .NotInKey();
     t->Add("min_free_gib", &min_free_gib, "Warn before a stage when the workspace disk has less free space (GiB).")
         .Min(0)
         .NotInKey();
