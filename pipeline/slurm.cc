@@ -101,12 +101,16 @@ class SlurmSubmitter {
       }
       for (int i : killed) {
         if (attempts[i] >= kMaxSlurmAttempts) {
+          std::error_code ec;
+          // Slurm creates the output file when the task starts, on the node that runs it.
+          const std::string reason =
+              fs::exists(OutPath(set, i), ec)
+                  ? "was killed " + std::to_string(attempts[i]) +
+                        " times (cancelled, out of memory, time limit or a failed node); its output: " + OutPath(set, i)
+                  : "ended " + std::to_string(attempts[i]) + " times without leaving its output " + OutPath(set, i) +
+                        " here: the workspace must be on a file system the compute nodes share, at the same path";
           WriteFileAtomic(JoinPath(work_.output_dir, "error.txt"),
-                          "Slurm task " + std::to_string(i) + " of " + set.label + " was killed " +
-                              std::to_string(attempts[i]) +
-                              " times (cancelled, out of memory, time limit or a "
-                              "failed node); its output: " +
-                              OutPath(set, i) + "\n");
+                          "Slurm task " + std::to_string(i) + " of " + set.label + " " + reason + "\n");
           ProcessResult r;
           r.signaled = true;
           r.signal = SIGKILL;

@@ -28,7 +28,9 @@ for a in "$@"; do
 done
 : > "$state/$id.pids"
 for i in ${array//,/ }; do
-  SLURM_ARRAY_TASK_ID=$i bash "$script" > "${out//%a/$i}" 2>&1 &
+  if [ -n "$FAKE_ELSEWHERE" ]; then sleep 0.2 & echo $! >> "$state/$id.pids"; continue; fi  # ran on a node we do not see
+  : > "${out//%a/$i}"  # Slurm creates the output file before the task runs
+  SLURM_ARRAY_TASK_ID=$i bash "$script" >> "${out//%a/$i}" 2>&1 &
   pid=$!
   echo $pid >> "$state/$id.pids"
   if grep -qx "$i" "$state/kill_once" 2>/dev/null; then
@@ -82,6 +84,7 @@ class SlurmExecutorTest : public ::testing::Test {
     setenv("PATH", (bin_ + ":" + old_path_).c_str(), 1);
     setenv("FAKE_SLURM", state_.c_str(), 1);
     unsetenv("FAIL_SHARD");
+    unsetenv("FAKE_ELSEWHERE");
     options_.shards = 4;
     options_.poll_seconds = 0.1;
     work_.stage = "observe";
@@ -132,6 +135,15 @@ TEST_F(SlurmExecutorTest, GivesUpOnATaskKilledOnEveryAttempt) {
   EXPECT_FALSE(r.ok());
   const std::string error = ReadFileToString(out_ + "/error.txt");
   EXPECT_NE(error.find("was killed 3 times"), std::string::npos) << error;
+}
+
+TEST_F(SlurmExecutorTest, AWorkspaceTheNodesDoNotShareIsNamed) {
+  options_.shards = 1;
+  setenv("FAKE_ELSEWHERE", "1", 1);  // the tasks run, but nothing they write appears here
+  const ProcessResult r = RunOnSlurm(work_, options_);
+  EXPECT_FALSE(r.ok());
+  const std::string error = ReadFileToString(out_ + "/error.txt");
+  EXPECT_NE(error.find("the workspace must be on a file system the compute nodes share"), std::string::npos) << error;
 }
 
 TEST_F(SlurmExecutorTest, MissingSbatchIsAClearError) {
