@@ -15,6 +15,7 @@
 #include "core/fs.h"
 #include "core/log.h"
 #include "core/progress.h"
+#include "core/text.h"
 #include "pipeline/interrupt.h"
 
 namespace relight::pipeline {
@@ -31,13 +32,8 @@ std::string ShellQuote(const std::string& s) {
   return q + "'";
 }
 
-std::string Trim(std::string s) {
-  while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' ')) s.pop_back();
-  return s;
-}
-
 std::string FirstLine(const std::string& s) {
-  const std::string t = Trim(s);
+  const std::string t = TrimWhitespace(s);
   const size_t nl = t.find('\n');
   return nl == std::string::npos ? t : t.substr(0, nl);
 }
@@ -190,7 +186,7 @@ class SlurmSubmitter {
       bool active = true;
       if (q.exit_code == 0) {
         outage = 0;
-        active = !Trim(q.out).empty();
+        active = !TrimWhitespace(q.out).empty();
       } else if (q.err.find("Invalid job id") != std::string::npos) {
         active = false;  // the controller forgot the finished job already
       } else {
@@ -231,7 +227,7 @@ class SlurmSubmitter {
     for (size_t pos; (pos = error_file.find("$i")) != std::string::npos;) error_file.replace(pos, 2, std::to_string(i));
     std::string reason;
     try {
-      reason = Trim(ReadFileToString(JoinPath(work_.output_dir, error_file)));
+      reason = TrimWhitespace(ReadFileToString(JoinPath(work_.output_dir, error_file)));
     } catch (const std::exception&) {
     }
     if (reason.empty())

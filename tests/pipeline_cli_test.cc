@@ -86,6 +86,20 @@ TEST_F(PipelineCliTest, UnknownKeyAndBadValueNameFileAndLine) {
   EXPECT_FALSE(fs::exists(dir_ / "workspace"));
 }
 
+// The slurm executor's --shard I/N reaches the stage executables; a malformed one is a user error, and a
+// stage that cannot be sharded does not take the flag.
+TEST_F(PipelineCliTest, MalformedShardIsRejected) {
+  std::string out;
+  for (const char* shard : {"1x/4", "1/4.5", "4/4", "-1/4", "3", "a/b", "1/0"}) {
+    const int rc = testing::RunCommand(
+        testing::BinDir() + "/linearize --shard " + shard + " --output " + (dir_ / "linearize"), &out);
+    EXPECT_EQ(rc, 2) << shard << ": " << out;
+    EXPECT_NE(out.find("expected I/N with 0 <= I < N"), std::string::npos) << shard << ": " << out;
+  }
+  EXPECT_EQ(testing::RunCommand(testing::BinDir() + "/inverse --shard 0/2 --output " + (dir_ / "inverse"), &out), 2);
+  EXPECT_NE(out.find("--shard"), std::string::npos) << out;
+}
+
 TEST_F(PipelineCliTest, SecondRunIsCachedAndStatusAndCleanWork) {
   AddPhotos(3);
   WriteConfig("ingest:\n  images: photos\n");

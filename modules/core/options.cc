@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/text.h"
 
 namespace relight {
 namespace {
@@ -33,22 +34,15 @@ std::string JoinStrings(const std::vector<std::string>& items, const std::string
   return out;
 }
 
-std::string Trim(const std::string& s) {
-  size_t b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return "";
-  size_t e = s.find_last_not_of(" \t\r\n");
-  return s.substr(b, e - b + 1);
-}
-
 std::vector<std::string> SplitList(std::string text) {
-  text = Trim(text);
+  text = TrimWhitespace(text);
   if (!text.empty() && text.front() == '[' && text.back() == ']') text = text.substr(1, text.size() - 2);
   std::vector<std::string> out;
-  if (Trim(text).empty()) return out;
+  if (TrimWhitespace(text).empty()) return out;
   std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, ',')) {
-    item = Trim(item);
+    item = TrimWhitespace(item);
     // YAML flow-list items may be quoted ("phong:500" or 'phong:500'), as in a config file.
     if (item.size() >= 2 && (item.front() == '"' || item.front() == '\'') && item.back() == item.front()) {
       item = item.substr(1, item.size() - 2);
@@ -73,7 +67,7 @@ bool ParseBool(const std::string& text, bool* value) {
 }
 
 bool ParseInt(const std::string& text, int* value) {
-  std::string t = Trim(text);
+  std::string t = TrimWhitespace(text);
   if (t.empty()) return false;
   char* end = nullptr;
   errno = 0;
@@ -84,7 +78,7 @@ bool ParseInt(const std::string& text, int* value) {
 }
 
 bool ParseDouble(const std::string& text, double* value) {
-  std::string t = Trim(text);
+  std::string t = TrimWhitespace(text);
   if (t.empty()) return false;
   std::istringstream ss(t);
   ss.imbue(std::locale::classic());

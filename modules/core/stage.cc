@@ -74,11 +74,18 @@ int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* t
   ctx.threads = threads;
   if (!shard_text.empty()) {
     const size_t slash = shard_text.find('/');
-    try {
+    // Both numbers whole: "1x/4" or "1/4.5" is not a shard.
+    const auto parse = [](const std::string& text, int* value) {
       size_t used = 0;
-      ctx.shard.index = std::stoi(shard_text.substr(0, slash), &used);
-      ctx.shard.count = slash == std::string::npos ? 0 : std::stoi(shard_text.substr(slash + 1));
-    } catch (const std::exception&) {
+      try {
+        *value = std::stoi(text, &used);
+      } catch (const std::exception&) {
+        return false;
+      }
+      return used == text.size();
+    };
+    if (slash == std::string::npos || !parse(shard_text.substr(0, slash), &ctx.shard.index) ||
+        !parse(shard_text.substr(slash + 1), &ctx.shard.count)) {
       ctx.shard.count = 0;
     }
     if (ctx.shard.count <= 0 || ctx.shard.index < 0 || ctx.shard.index >= ctx.shard.count) {

@@ -30,6 +30,14 @@ struct DescriptorMatchingOptions {
 // Rows normalised to unit length (COLMAP stores SIFT descriptors as uint8).
 DescriptorMatrix NormalizedDescriptors(const std::vector<uint8_t>& data, int rows, int cols);
 
+// One photo's SIFT descriptors as COLMAP stores them: a quarter of the memory of its DescriptorMatrix, so a
+// collection is held as these and each photo's are normalised when they are compared.
+struct CompactDescriptors {
+  std::vector<uint8_t> data;  // rows x cols, row-major
+  int rows = 0, cols = 0;
+  DescriptorMatrix Normalized() const { return NormalizedDescriptors(data, rows, cols); }
+};
+
 // Index pairs (row in `a`, row in `b`) of the putative matches, sorted by the row in `a`. With `allowed`
 // (guided matching, e.g. by a known epipolar geometry) only pairs (i, j) it accepts are compared: nearest
 // neighbours and the ratio test are taken among them.

@@ -5,8 +5,10 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numeric>
 #include <opencv2/core.hpp>
+#include <tuple>
 
 #include "core/error.h"
 #include "core/timer.h"
@@ -100,38 +102,45 @@ std::vector<int> VocabularyTree::Quantize(const DescriptorMatrix& descriptors) c
   return words;
 }
 
-RetrievalResult RetrieveImagePairs(const std::vector<DescriptorMatrix>& descriptors,
+RetrievalResult RetrieveImagePairs(int num_photos, const std::function<DescriptorMatrix(int)>& descriptors_of,
                                    const ImageRetrievalOptions& options) {
   RetrievalResult result;
-  const int n = static_cast<int>(descriptors.size());
-  if (n <= options.num_neighbors + 1) {
+  const int n = num_photos;
+  result.ranked.resize(n);  // stays empty for each photo when every pair is returned
+  const auto every_pair = [&] {
     for (int i = 0; i < n; ++i) {
       for (int j = i + 1; j < n; ++j) result.pairs.emplace_back(i, j);
     }
     return result;
-  }
+  };
+  if (n <= options.num_neighbors + 1) return every_pair();
   Timer timer;
   // Training rows: evenly strided from every photo, the same share of each.
   // Photos without features (blank or tiny) add nothing to the tree and rank last for every photo.
-  int dims = 0;
-  for (const auto& d : descriptors) {
-    if (d.rows() > 0) dims = static_cast<int>(d.cols());
-  }
-  if (dims == 0) {  // no features anywhere: nothing to rank by
-    for (int i = 0; i < n; ++i) {
-      for (int j = i + 1; j < n; ++j) result.pairs.emplace_back(i, j);
-    }
-    return result;
-  }
   const int64_t per_photo = std::max<int64_t>(1, options.max_training_descriptors / n);
-  std::vector<std::pair<int, int>> sample;  // (photo, row)
+  std::vector<DescriptorMatrix> samples(n);
+  std::vector<int64_t> num_rows(n, 0);
+  int dims = 0;
+  int64_t num_samples = 0;
   for (int i = 0; i < n; ++i) {
-    const int64_t rows = descriptors[i].rows();
-    const int64_t take = std::min(rows, per_photo);
-    for (int64_t t = 0; t < take; ++t) sample.emplace_back(i, static_cast<int>(t * rows / take));
+    const DescriptorMatrix d = descriptors_of(i);
+    num_rows[i] = d.rows();
+    if (d.rows() == 0) continue;
+    dims = static_cast<int>(d.cols());
+    const int64_t take = std::min<int64_t>(d.rows(), per_photo);
+    samples[i].resize(take, d.cols());
+    for (int64_t t = 0; t < take; ++t) samples[i].row(t) = d.row(t * d.rows() / take);
+    num_samples += take;
   }
-  DescriptorMatrix training(sample.size(), dims);
-  for (size_t s = 0; s < sample.size(); ++s) training.row(s) = descriptors[sample[s].first].row(sample[s].second);
+  if (dims == 0) return every_pair();  // no features anywhere: nothing to rank by
+  DescriptorMatrix training(num_samples, dims);
+  int64_t next_row = 0;
+  for (auto& s : samples) {
+    if (s.rows() == 0) continue;
+    training.middleRows(next_row, s.rows()) = s;
+    next_row += s.rows();
+    s = DescriptorMatrix();
+  }
   const VocabularyTree tree = VocabularyTree::Build(training, options);
   result.num_words = tree.num_words();
   result.build_seconds = timer.Seconds();
@@ -141,7 +150,7 @@ RetrievalResult RetrieveImagePairs(const std::vector<DescriptorMatrix>& descript
   // texture (one brick pattern, one leafy background) that would otherwise dominate a photo's histogram.
   std::vector<std::vector<int>> words(n);
   for (int i = 0; i < n; ++i) {
-    if (descriptors[i].rows() > 0) words[i] = tree.Quantize(descriptors[i]);
+    if (num_rows[i] > 0) words[i] = tree.Quantize(descriptors_of(i));
   }
   std::vector<int> photos_with_word(tree.num_words(), 0);
   std::vector<std::vector<std::pair<int, float>>> histograms(n);
@@ -170,7 +179,6 @@ RetrievalResult RetrieveImagePairs(const std::vector<DescriptorMatrix>& descript
   const Eigen::SparseMatrix<float, Eigen::ColMajor> tfidf_t = tfidf.transpose();
 
   // Rank in blocks of photos (similarities of a block against all: block x n).
-  result.ranked.resize(n);
   const int block = 256;
   std::vector<std::pair<int, int>> pairs;
   for (int b = 0; b < n; b += block) {
@@ -183,8 +191,11 @@ RetrievalResult RetrieveImagePairs(const std::vector<DescriptorMatrix>& descript
         if (j != i) ranked.emplace_back(j, scores(r, j));
       }
       std::stable_sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
-      ranked.resize(options.num_neighbors);
-      for (const auto& [j, s] : ranked) pairs.emplace_back(std::min(i, j), std::max(i, j));
+      ranked.resize(std::min<size_t>(ranked.size(), std::max(options.num_neighbors, options.num_ranked)));
+      for (int r = 0; r < options.num_neighbors; ++r) {
+        const int j = ranked[r].first;
+        pairs.emplace_back(std::min(i, j), std::max(i, j));
+      }
       result.ranked[i] = std::move(ranked);
     }
   }
@@ -193,6 +204,82 @@ RetrievalResult RetrieveImagePairs(const std::vector<DescriptorMatrix>& descript
   result.pairs = std::move(pairs);
   result.query_seconds = timer.Seconds();
   return result;
+}
+
+RetrievalExpansion::RetrievalExpansion(std::vector<std::vector<std::pair<int, float>>> ranked, int num_neighbors,
+                                       const std::vector<std::pair<int, int>>& first_pairs)
+    : ranked_(std::move(ranked)),
+      num_neighbors_(num_neighbors),
+      partners_(ranked_.size()),
+      next_candidate_(ranked_.size(), static_cast<size_t>(num_neighbors)),
+      num_extra_(ranked_.size(), 0),
+      compared_(first_pairs.begin(), first_pairs.end()) {}
+
+std::vector<std::pair<int, int>> RetrievalExpansion::Next(const std::vector<std::pair<int, int>>& verified) {
+  const int n = static_cast<int>(ranked_.size());
+  std::vector<char> gained(n, 0);
+  for (const auto& [i, j] : verified) {
+    RELIGHT_CHECK(i >= 0 && i < n && j >= 0 && j < n) << "retrieval expansion: pair " << i << "-" << j << " of " << n;
+    partners_[i].push_back(j);
+    partners_[j].push_back(i);
+    gained[i] = gained[j] = 1;
+  }
+  if (round_ == 0 && n > 0) {
+    std::vector<size_t> counts(n);
+    for (int i = 0; i < n; ++i) counts[i] = partners_[i].size();
+    std::nth_element(counts.begin(), counts.begin() + n / 2, counts.end());
+    median_partners_ = static_cast<int>(counts[n / 2]);
+  }
+  std::vector<std::pair<int, int>> pairs;
+  num_expanded_last_ = 0;
+  for (int i = 0; i < n; ++i) {
+    const int shortfall = std::max(median_partners_, 1) - static_cast<int>(partners_[i].size());
+    if (shortfall <= 0 || (round_ > 0 && !gained[i])) continue;
+    // num_neighbors in proportion to the shortfall (all of them for a photo with no partner), and no more
+    // in all than `ranked` holds beyond the first num_neighbors.
+    const int wanted = (num_neighbors_ * shortfall + std::max(median_partners_, 1) - 1) / std::max(median_partners_, 1);
+    const int budget = std::min(wanted, static_cast<int>(ranked_[i].size()) - num_neighbors_ - num_extra_[i]);
+    if (budget <= 0) continue;
+    const auto rank_of = [&](int j) {
+      for (size_t r = 0; r < ranked_[i].size(); ++r) {
+        if (ranked_[i][r].first == j) return r;
+      }
+      return ranked_[i].size();
+    };
+    const auto take = [&](int j) {
+      if (!compared_.emplace(std::min(i, j), std::max(i, j)).second) return false;
+      pairs.emplace_back(std::min(i, j), std::max(i, j));
+      return true;
+    };
+    // Transitive candidates first: photos verified with this photo's partners, most links first, then by
+    // similarity. They are near it whatever their light, where the appearance ranking is least reliable.
+    std::map<int, int> links;
+    for (int p : partners_[i]) {
+      for (int q : partners_[p]) {
+        if (q != i && !compared_.count({std::min(i, q), std::max(i, q)})) ++links[q];
+      }
+    }
+    struct Candidate {
+      int photo, links;
+      size_t rank;
+    };
+    std::vector<Candidate> transitive;
+    for (const auto& [q, count] : links) transitive.push_back({q, count, rank_of(q)});
+    std::sort(transitive.begin(), transitive.end(), [](const Candidate& a, const Candidate& b) {
+      return std::tie(b.links, a.rank, a.photo) < std::tie(a.links, b.rank, b.photo);
+    });
+    int taken = 0;
+    for (size_t t = 0; t < transitive.size() && taken < budget; ++t) taken += take(transitive[t].photo);
+    // Then the next candidates of the ranking.
+    for (; next_candidate_[i] < ranked_[i].size() && taken < budget; ++next_candidate_[i]) {
+      taken += take(ranked_[i][next_candidate_[i]].first);
+    }
+    num_extra_[i] += taken;
+    num_expanded_last_ += taken > 0;
+  }
+  std::sort(pairs.begin(), pairs.end());
+  ++round_;
+  return pairs;
 }
 
 }  // namespace relight

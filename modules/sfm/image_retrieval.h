@@ -8,14 +8,22 @@
 // scoring are written here because no library on the stack does them in a form
 // we can use: COLMAP 3.8's vocab_tree_retriever only prints its ranking to the
 // log and searches unseeded kd-trees, so its pairs change between runs, and
-// OpenCV's BOW classes quantise by a flat (FLANN, unseeded) search. The pairs
-// are reproducible: repeated rankings of one database give the same pairs
-// (tools/retrieval_recall), and sfm_synthetic_test's retrieval run gave the same
-// 168 pairs, 23 of 24 photos registered at 0.207 deg, in three runs on two
-// machines (2026-12-05).
+// OpenCV's BOW classes quantise by a flat (FLANN, unseeded) search.
+//
+// The same descriptors give the same pairs (tools/retrieval_recall ranks one
+// database repeatably), but the descriptors of the same photos are not always
+// the same: COLMAP 3.8's CPU SIFT returns the odd keypoint's descriptor
+// differently from run to run (on synthetic_bunny's photos one keypoint of one
+// photo came out all zeros in 4 of 8 runs, with 1 or 2 threads alike), and one
+// changed training descriptor changes the k-means vocabulary. That collection's
+// retrieval gave 160 to 168 pairs from run to run, and a photo could fall out
+// of the model; RetrievalExpansion, which matches poorly linked photos
+// further, makes the registration depend far less on which pairs came first.
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <set>
 #include <utility>
 #include <vector>
 
@@ -28,6 +36,7 @@ struct ImageRetrievalOptions {
   int levels = 3;                         // depth of the tree: up to branching^levels words
   int max_training_descriptors = 250000;  // descriptors the tree is clustered on (evenly from every photo)
   int num_neighbors = 30;                 // most similar photos each photo is paired with
+  int num_ranked = 0;                     // candidates kept in RetrievalResult::ranked (at least num_neighbors)
   uint64_t seed = 0;                      // k-means initialisation
 };
 
@@ -54,7 +63,8 @@ class VocabularyTree {
 
 struct RetrievalResult {
   std::vector<std::pair<int, int>> pairs;                  // (i, j), i < j, indices into the photo list
-  std::vector<std::vector<std::pair<int, float>>> ranked;  // per photo: (photo, similarity), best first
+  std::vector<std::vector<std::pair<int, float>>> ranked;  // per photo: (photo, similarity), best first; empty
+                                                           // when every pair is returned
   int num_words = 0;                                       // leaves of the tree
   double build_seconds = 0, query_seconds = 0;
 };
@@ -62,7 +72,45 @@ struct RetrievalResult {
 // Builds a tree on a sample of every photo's descriptors, scores every photo against every other by the
 // cosine of their tf-idf word histograms, and pairs each photo with its `num_neighbors` best (a pair
 // chosen by either photo is kept). With at most num_neighbors + 1 photos every pair is returned.
-RetrievalResult RetrieveImagePairs(const std::vector<DescriptorMatrix>& descriptors,
+// `descriptors_of(i)` gives photo i's descriptors (rows of unit length); each photo's are asked for twice, so a
+// large collection need not hold them all as floats.
+RetrievalResult RetrieveImagePairs(int num_photos, const std::function<DescriptorMatrix(int)>& descriptors_of,
                                    const ImageRetrievalOptions& options);
+inline RetrievalResult RetrieveImagePairs(const std::vector<DescriptorMatrix>& descriptors,
+                                          const ImageRetrievalOptions& options) {
+  return RetrieveImagePairs(
+      static_cast<int>(descriptors.size()), [&](int i) { return descriptors[i]; }, options);
+}
+
+// Retrieval that adapts to photos that match poorly (a sky or light unlike their neighbours', a view few
+// other photos share), whose first candidates hold few true neighbours. After the first round of matching,
+// a photo verified with fewer partners than the median photo is matched with more photos, as many as
+// `num_neighbors` times its shortfall (all `num_neighbors` for a photo with none): first those its
+// partners are verified with (transitive candidates, most links first: near it whatever their light), then
+// its next candidates of `ranked`. After later rounds, only while the round before found it a new partner.
+// The photos a photo is matched with in all stay bounded by the length of `ranked`, so the cost stays
+// linear in the photos, and mostly the collection's poorly linked tail pays it.
+class RetrievalExpansion {
+ public:
+  RetrievalExpansion(std::vector<std::vector<std::pair<int, float>>> ranked, int num_neighbors,
+                     const std::vector<std::pair<int, int>>& first_pairs);
+
+  // Takes the verified pairs (i, j) of the round just matched and returns the next round's pairs (i < j,
+  // none matched before); empty when matching is done.
+  std::vector<std::pair<int, int>> Next(const std::vector<std::pair<int, int>>& verified);
+  int num_expanded_last() const { return num_expanded_last_; }  // photos given new candidates by Next
+  int median_partners() const { return median_partners_; }      // verified partners after the first round
+
+ private:
+  std::vector<std::vector<std::pair<int, float>>> ranked_;
+  int num_neighbors_;
+  int round_ = 0;
+  std::vector<std::vector<int>> partners_;  // verified partners of each photo so far
+  int median_partners_ = 0;                 // of the median photo after the first round
+  std::vector<size_t> next_candidate_;      // rank of each photo's next candidate
+  std::vector<int> num_extra_;              // photos each photo was matched with beyond its first candidates
+  std::set<std::pair<int, int>> compared_;
+  int num_expanded_last_ = 0;
+};
 
 }  // namespace relight

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <random>
 #include <set>
 
@@ -132,6 +133,83 @@ TEST(ImageRetrievalTest, QuantizeSendsEachTrainingClusterToItsOwnWord) {
     distinct.insert(words[r]);
   }
   EXPECT_EQ(distinct.size(), size_t(4));
+}
+
+// Photos whose first candidates hold few true neighbours (their sky or light is unlike their neighbours')
+// are matched with their partners' partners and further down their ranking, while that finds them partners.
+TEST(RetrievalExpansionTest, MatchesPoorlyLinkedPhotosFurtherWhileThatFindsPartners) {
+  // A ring of 40 photos; a pair verifies when the photos are at most 2 steps apart (4 true partners each).
+  const int n = 40, k = 4;
+  const auto distance = [&](int i, int j) { return std::min((i - j + n) % n, (j - i + n) % n); };
+  const auto verifies = [&](int i, int j) { return distance(i, j) <= 2; };
+  // Photos 5, 12 and 30 look unlike their neighbours: no other photo ranks them among its first 16, and
+  // their own rankings start with photos across the ring. 5 holds two true partners at ranks 4-7, 12 one at
+  // ranks 4-7 and one more at 8-11, 30 none in its 16 candidates.
+  const std::set<int> shy = {5, 12, 30};
+  std::vector<std::vector<std::pair<int, float>>> ranked(n);
+  for (int i = 0; i < n; ++i) {
+    std::vector<int> order;
+    for (int j = 0; j < n; ++j) {
+      if (j != i && !shy.count(j)) order.push_back(j);
+    }
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return distance(i, a) < distance(i, b); });
+    if (i == 5) order = {20, 21, 22, 23, 24, 25, 4, 6, 26, 27, 28, 29, 31, 32, 33, 34};
+    if (i == 12) order = {25, 26, 27, 28, 29, 31, 32, 11, 33, 13, 34, 35, 36, 37, 38, 39};
+    if (i == 30) order = {0, 1, 2, 3, 4, 6, 7, 8, 9, 10, 11, 13, 14, 15, 16, 17};
+    order.resize(4 * k);
+    for (size_t r = 0; r < order.size(); ++r) ranked[i].emplace_back(order[r], 1.0f - 0.01f * r);
+  }
+  std::set<std::pair<int, int>> first;
+  for (int i = 0; i < n; ++i) {
+    for (int r = 0; r < k; ++r) first.emplace(std::min(i, ranked[i][r].first), std::max(i, ranked[i][r].first));
+  }
+  std::vector<std::pair<int, int>> pairs(first.begin(), first.end());
+  RetrievalExpansion expansion(ranked, k, pairs);
+  std::vector<int> partners(n, 0), compared(n, 0), partners_after_first(n, 0);
+  std::set<std::pair<int, int>> all;
+  size_t total = 0;
+  int rounds = 0;
+  while (!pairs.empty()) {
+    ++rounds;
+    std::vector<std::pair<int, int>> verified;
+    for (const auto& [i, j] : pairs) {
+      ++compared[i], ++compared[j];
+      if (verifies(i, j)) verified.emplace_back(i, j), ++partners[i], ++partners[j];
+    }
+    all.insert(pairs.begin(), pairs.end());
+    total += pairs.size();
+    if (rounds == 1) partners_after_first = partners;
+    pairs = expansion.Next(verified);
+    if (rounds == 1) {
+      EXPECT_EQ(expansion.median_partners(), 4);
+      // Every later pair has a photo that was short of the median photo's 4 partners after the first round.
+      for (const auto& [i, j] : pairs) EXPECT_TRUE(partners_after_first[i] < 4 || partners_after_first[j] < 4);
+    }
+  }
+  EXPECT_EQ(all.size(), total) << "a pair was matched twice";
+  // The three photos find partners; 30, whose ranking holds no neighbour and which has no partner to go
+  // through, is given up after one fruitless round of k more candidates.
+  EXPECT_GE(partners[5], 2);
+  EXPECT_GE(partners[12], 2);
+  EXPECT_EQ(partners[30], 0);
+  EXPECT_EQ(compared[30], 2 * k);
+  // Photo 12's partner 11 leads it to 10 and 13, whom its ranking holds low or not at all.
+  EXPECT_TRUE(all.count({10, 12}) && all.count({12, 13}));
+  for (int i = 0; i < n; ++i) {
+    if (!shy.count(i)) EXPECT_GE(partners[i], 3) << "photo " << i;
+    EXPECT_LE(compared[i], 4 * k + 4 * k) << "photo " << i;  // its own 4k candidates and others' choices
+  }
+  std::printf("retrieval expansion: %d rounds, %zu pairs after the first %zu\n", rounds, total - first.size(),
+              first.size());
+}
+
+TEST(RetrievalExpansionTest, EveryPairMatchedLeavesNothingToExpand) {
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i < 5; ++i) {
+    for (int j = i + 1; j < 5; ++j) pairs.emplace_back(i, j);
+  }
+  RetrievalExpansion expansion(std::vector<std::vector<std::pair<int, float>>>(5), 4, pairs);
+  EXPECT_TRUE(expansion.Next({}).empty());  // no partner verified, but no candidate left either
 }
 
 }  // namespace

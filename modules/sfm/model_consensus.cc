@@ -1,5 +1,8 @@
 #include "sfm/model_consensus.h"
 
+#include <set>
+#include <string>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -103,6 +106,18 @@ int ChooseConsensusRun(std::vector<MapperRun>* runs, double tolerance_deg) {
     if (best < 0 || better((*runs)[i], (*runs)[best])) best = i;
   }
   return best;
+}
+
+int SplitOffPhotos(const std::vector<Reconstruction>& models) {
+  if (models.size() < 2) return 0;
+  std::set<std::string> largest, outside;
+  for (const auto& [id, image] : models[0].images) largest.insert(image.name);
+  for (size_t m = 1; m < models.size(); ++m) {
+    for (const auto& [id, image] : models[m].images) {
+      if (!largest.count(image.name)) outside.insert(image.name);
+    }
+  }
+  return static_cast<int>(outside.size());
 }
 
 }  // namespace relight

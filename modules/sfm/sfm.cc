@@ -10,11 +10,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -336,11 +339,11 @@ void CheckRegistered(const SfmOptions& options, const SfmSummary& summary, const
       problems.push_back("only " + std::to_string(summary.num_registered) + " of the " + std::to_string(usable) +
                          " photos with features registered");
     }
-    if (summary.second_model_size >= 3) {
-      problems.push_back("the photos split into " + std::to_string(summary.num_models) +
-                         " separate reconstructions (the largest holds " + std::to_string(summary.num_registered) +
-                         " photos, the next " + std::to_string(summary.second_model_size) +
-                         "): nothing links them");
+    if (summary.split_off_photos >= 3) {
+      problems.push_back("the photos split into separate reconstructions: " +
+                         std::to_string(summary.split_off_photos) + " photos form " +
+                         std::to_string(summary.num_models - 1) + " smaller one(s) that COLMAP could not join to "
+                         "the largest (" + std::to_string(summary.num_registered) + " photos)");
     }
     if (summary.consensus == "disagreed" || summary.consensus == "inconsistent") {
       const SfmMapperRun& kept = summary.mapper_runs[summary.chosen_run];
@@ -418,70 +421,167 @@ void AddChromaFeatures(const std::string& database, const std::string& image_dir
   step_seconds->emplace_back("colour features", timer.Seconds());
 }
 
-// Putative matches of every pair (exhaustive), of each photo with its next
-// `options.sequential_overlap` photos in name order (sequential), or with its
-// most similar photos (retrieval, image_retrieval.h), by our exact descriptor
-// search (descriptor_matching.h), into the database's `matches` table.
-// Returns the number of photo pairs compared.
-int64_t MatchFeatures(const std::string& database, const std::string& matcher, const SfmOptions& options,
-                      int threads, std::vector<std::pair<std::string, double>>* step_seconds) {
-  Timer timer;
-  ColmapDatabase db(database);
-  std::vector<DatabaseImage> images = db.ReadImages();
-  std::sort(images.begin(), images.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
-  std::vector<DescriptorMatrix> descriptors(images.size());
-  for (size_t i = 0; i < images.size(); ++i) {
-    int rows = 0, cols = 0;
-    const std::vector<uint8_t> data = db.ReadDescriptors(images[i].image_id, &rows, &cols);
-    descriptors[i] = NormalizedDescriptors(data, rows, cols);
-  }
-  std::vector<std::pair<int, int>> pairs;  // indices into `images`
-  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-  if (matcher == "retrieval") {
-    ImageRetrievalOptions retrieval;
-    retrieval.num_neighbors = options.retrieval_neighbors;
-    retrieval.seed = static_cast<uint64_t>(options.seed);  // see image_retrieval.h on reproducibility
-    RetrievalResult found;
-    arena.execute([&] { found = RetrieveImagePairs(descriptors, retrieval); });
-    pairs = std::move(found.pairs);
-    step_seconds->emplace_back("retrieval: vocabulary", found.build_seconds);
-    step_seconds->emplace_back("retrieval: ranking", found.query_seconds);
-    RLOG_INFO("retrieval: {} visual words from the photos' own features ({:.1f} s), {} photo pairs of {} "
-              "({} most similar photos each, {:.1f} s)",
-              found.num_words, found.build_seconds, pairs.size(),
-              int64_t(images.size()) * (int64_t(images.size()) - 1) / 2, options.retrieval_neighbors,
-              found.query_seconds);
-  } else {
-    for (int i = 0; i < static_cast<int>(images.size()); ++i) {
-      const int last = matcher == "sequential" ? std::min<int>(images.size() - 1, i + options.sequential_overlap)
-                                               : images.size() - 1;
-      for (int j = i + 1; j <= last; ++j) pairs.emplace_back(i, j);
+// Two-view verification (two_view_verification.h) of each of `matches`: the geometry of every pair with at
+// least kMinPairInliers inliers, in the order of `matches`. `keypoints` caches the database's keypoints.
+std::vector<DatabaseTwoViewGeometry> VerifyPairs(const ColmapDatabase& db, const std::vector<DatabaseMatches>& matches,
+                                                 int seed, tbb::task_arena& arena,
+                                                 std::map<int, std::vector<Eigen::Vector2d>>* keypoints) {
+  for (const auto& m : matches) {
+    for (int id : {m.image_id1, m.image_id2}) {
+      if (!keypoints->count(id)) (*keypoints)[id] = db.ReadKeypoints(id);
     }
   }
-  std::vector<DatabaseMatches> results(pairs.size());
-  Progress progress("match features (" + matcher + ")", static_cast<int64_t>(pairs.size()));
+  TwoViewVerificationOptions verify;
+  verify.min_num_inliers = kMinPairInliers;
+  verify.seed = seed;
+  std::vector<DatabaseTwoViewGeometry> geometries(matches.size());
+  std::vector<char> verified(matches.size(), 0);
+  Progress progress("verify matches", static_cast<int64_t>(matches.size()));
   arena.execute([&] {
-    tbb::parallel_for(size_t(0), pairs.size(), [&](size_t k) {
-      auto [i, j] = pairs[k];
-      DatabaseMatches& m = results[k];
-      const bool swap = images[i].image_id > images[j].image_id;  // COLMAP stores the smaller id first
-      const int a = swap ? j : i, b = swap ? i : j;
-      m.image_id1 = images[a].image_id;
-      m.image_id2 = images[b].image_id;
-      m.matches = MatchDescriptors(descriptors[a], descriptors[b], DescriptorMatchingOptions{});
+    tbb::parallel_for(size_t(0), matches.size(), [&](size_t i) {
+      const DatabaseMatches& m = matches[i];
+      const auto& k1 = keypoints->at(m.image_id1);
+      const auto& k2 = keypoints->at(m.image_id2);
+      std::vector<Eigen::Vector2d> p1, p2;
+      std::vector<std::array<uint32_t, 2>> valid;
+      for (const auto& [a, b] : m.matches) {
+        if (a < k1.size() && b < k2.size()) {
+          p1.push_back(k1[a]);
+          p2.push_back(k2[b]);
+          valid.push_back({a, b});
+        }
+      }
+      const TwoViewVerification v = VerifyTwoView(p1, p2, verify);
+      if (v.verified) {
+        DatabaseTwoViewGeometry& g = geometries[i];
+        g.image_id1 = m.image_id1;
+        g.image_id2 = m.image_id2;
+        g.config = v.config;
+        g.F = v.F;
+        g.H = v.H;
+        for (int k : v.inliers) g.inlier_matches.push_back(valid[k]);
+        verified[i] = 1;
+      }
       progress.Advance();
     });
   });
   progress.Finish();
-  std::vector<DatabaseMatches> kept;
-  for (auto& m : results) {
-    if (static_cast<int>(m.matches.size()) >= kMinPairInliers) kept.push_back(std::move(m));
+  std::vector<DatabaseTwoViewGeometry> kept;
+  for (size_t i = 0; i < matches.size(); ++i) {
+    if (verified[i]) kept.push_back(std::move(geometries[i]));
   }
-  db.ReplaceMatches(kept);
-  step_seconds->emplace_back("match features (" + matcher + ")", timer.Seconds());
-  RLOG_INFO("matching ({}): {} photo pairs, {} with at least {} putative matches", matcher, pairs.size(),
-            kept.size(), kMinPairInliers);
-  return static_cast<int64_t>(pairs.size());
+  return kept;
+}
+
+struct MatchCounts {
+  int64_t compared = 0;  // photo pairs whose descriptors were compared
+  int verified = 0;      // pairs with at least kMinPairInliers verified matches
+};
+
+// Matches and verifies photo pairs into the database's `matches` and `two_view_geometries` tables: every
+// pair (exhaustive), each photo with its next `options.sequential_overlap` photos in name order
+// (sequential), or each photo with its most similar photos (retrieval, image_retrieval.h), by our exact
+// descriptor search (descriptor_matching.h) and two-view verification (VerifyPairs).
+// Retrieval matches photos that verify poorly with more of their candidates (RetrievalExpansion).
+MatchCounts MatchFeatures(const std::string& database, const std::string& matcher, const SfmOptions& options,
+                          int threads, std::vector<std::pair<std::string, double>>* step_seconds) {
+  constexpr int kRetrievalRankedFactor = 4;  // candidates ranked per photo, in multiples of retrieval_neighbors
+  Timer timer;
+  ColmapDatabase db(database);
+  std::vector<DatabaseImage> images = db.ReadImages();
+  std::sort(images.begin(), images.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
+  const int n = static_cast<int>(images.size());
+  std::vector<CompactDescriptors> descriptors(n);
+  for (int i = 0; i < n; ++i) {
+    CompactDescriptors& d = descriptors[i];
+    d.data = db.ReadDescriptors(images[i].image_id, &d.rows, &d.cols);
+  }
+  std::vector<std::pair<int, int>> pairs;  // indices into `images`, first < second
+  std::optional<RetrievalExpansion> expansion;
+  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+  if (matcher == "retrieval") {
+    ImageRetrievalOptions retrieval;
+    retrieval.num_neighbors = options.retrieval_neighbors;
+    retrieval.num_ranked = kRetrievalRankedFactor * options.retrieval_neighbors;
+    retrieval.seed = static_cast<uint64_t>(options.seed);  // see image_retrieval.h on reproducibility
+    RetrievalResult found;
+    arena.execute([&] {
+      found = RetrieveImagePairs(n, [&](int i) { return descriptors[i].Normalized(); }, retrieval);
+    });
+    pairs = std::move(found.pairs);
+    expansion.emplace(std::move(found.ranked), options.retrieval_neighbors, pairs);
+    step_seconds->emplace_back("retrieval: vocabulary", found.build_seconds);
+    step_seconds->emplace_back("retrieval: ranking", found.query_seconds);
+    RLOG_INFO("retrieval: {} visual words from the photos' own features ({:.1f} s), {} photo pairs of {} "
+              "({} most similar photos each, {:.1f} s)",
+              found.num_words, found.build_seconds, pairs.size(), int64_t(n) * (n - 1) / 2,
+              options.retrieval_neighbors, found.query_seconds);
+  } else {
+    for (int i = 0; i < n; ++i) {
+      const int last = matcher == "sequential" ? std::min(n - 1, i + options.sequential_overlap) : n - 1;
+      for (int j = i + 1; j <= last; ++j) pairs.emplace_back(i, j);
+    }
+  }
+  std::map<int, int> index_of_id;
+  for (int i = 0; i < n; ++i) index_of_id[images[i].image_id] = i;
+  int64_t num_compared = 0;
+  std::vector<DatabaseMatches> putative;
+  std::vector<DatabaseTwoViewGeometry> verified;
+  std::map<int, std::vector<Eigen::Vector2d>> keypoints;
+  double verify_seconds = 0;
+  for (int round = 1; !pairs.empty(); ++round) {
+    const std::string round_text = round > 1 ? ", round " + std::to_string(round) : "";
+    std::vector<DatabaseMatches> results(pairs.size());
+    Progress progress("match features (" + matcher + round_text + ")", static_cast<int64_t>(pairs.size()));
+    // Each thread keeps the last photo it normalised: pairs come sorted by their first photo.
+    tbb::enumerable_thread_specific<std::pair<int, DescriptorMatrix>> last(std::make_pair(-1, DescriptorMatrix()));
+    arena.execute([&] {
+      tbb::parallel_for(size_t(0), pairs.size(), [&](size_t k) {
+        auto [i, j] = pairs[k];
+        auto& [last_photo, last_descriptors] = last.local();
+        if (last_photo != i) last_photo = i, last_descriptors = descriptors[i].Normalized();
+        const DescriptorMatrix other = descriptors[j].Normalized();
+        DatabaseMatches& m = results[k];
+        const bool swap = images[i].image_id > images[j].image_id;  // COLMAP stores the smaller id first
+        m.image_id1 = images[swap ? j : i].image_id;
+        m.image_id2 = images[swap ? i : j].image_id;
+        m.matches = swap ? MatchDescriptors(other, last_descriptors, DescriptorMatchingOptions{})
+                         : MatchDescriptors(last_descriptors, other, DescriptorMatchingOptions{});
+        progress.Advance();
+      });
+    });
+    progress.Finish();
+    num_compared += static_cast<int64_t>(pairs.size());
+    std::vector<DatabaseMatches> kept;
+    for (auto& m : results) {
+      if (static_cast<int>(m.matches.size()) >= kMinPairInliers) kept.push_back(std::move(m));
+    }
+    Timer verify_timer;
+    std::vector<DatabaseTwoViewGeometry> round_verified = VerifyPairs(db, kept, options.seed, arena, &keypoints);
+    verify_seconds += verify_timer.Seconds();
+    RLOG_INFO("matching ({}{}): {} photo pairs, {} with at least {} putative matches, {} verified", matcher,
+              round_text, pairs.size(), kept.size(), kMinPairInliers, round_verified.size());
+    std::vector<std::pair<int, int>> round_pairs;
+    for (const auto& g : round_verified) {
+      round_pairs.emplace_back(index_of_id.at(g.image_id1), index_of_id.at(g.image_id2));
+    }
+    std::move(kept.begin(), kept.end(), std::back_inserter(putative));
+    std::move(round_verified.begin(), round_verified.end(), std::back_inserter(verified));
+    pairs.clear();
+    if (expansion) {
+      pairs = expansion->Next(round_pairs);
+      if (!pairs.empty()) {
+        RLOG_INFO("retrieval: {} photo(s) with fewer verified partners than the median photo's {} matched with "
+                  "more: {} photo pairs",
+                  expansion->num_expanded_last(), expansion->median_partners(), pairs.size());
+      }
+    }
+  }
+  db.ReplaceMatches(putative);
+  db.ReplaceTwoViewGeometries(verified);
+  step_seconds->emplace_back("match features (" + matcher + ")", timer.Seconds() - verify_seconds);
+  step_seconds->emplace_back("verify matches", verify_seconds);
+  return {num_compared, static_cast<int>(verified.size())};
 }
 
 // Runs a COLMAP command that reads `model` from --input_path and writes a model to --output_path (fresh
@@ -509,59 +609,15 @@ Reconstruction RunModelCommand(ColmapCommand command, const Reconstruction& mode
   return out;
 }
 
-// Replaces COLMAP's verified geometries by our deterministic ones
-// (two_view_verification.h); returns the pairs with at least kMinPairInliers.
-int VerifyMatches(const std::string& database, int seed, int threads,
-                  std::vector<std::pair<std::string, double>>* step_seconds) {
+// Replaces the verified geometries of COLMAP's matchers by our deterministic ones; returns the pairs with at
+// least kMinPairInliers inliers.
+int VerifyDatabaseMatches(const std::string& database, int seed, int threads,
+                          std::vector<std::pair<std::string, double>>* step_seconds) {
   Timer timer;
   ColmapDatabase db(database);
-  const std::vector<DatabaseMatches> all = db.ReadAllMatches();
-  std::map<int, std::vector<Eigen::Vector2d>> keypoints;
-  for (const auto& m : all) {
-    for (int id : {m.image_id1, m.image_id2}) {
-      if (!keypoints.count(id)) keypoints[id] = db.ReadKeypoints(id);
-    }
-  }
-  TwoViewVerificationOptions verify;
-  verify.min_num_inliers = kMinPairInliers;
-  verify.seed = seed;
-  std::vector<DatabaseTwoViewGeometry> geometries(all.size());
-  std::vector<char> verified(all.size(), 0);
-  Progress progress("verify matches", static_cast<int64_t>(all.size()));
   tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-  arena.execute([&] {
-    tbb::parallel_for(size_t(0), all.size(), [&](size_t i) {
-      const DatabaseMatches& m = all[i];
-      const auto& k1 = keypoints.at(m.image_id1);
-      const auto& k2 = keypoints.at(m.image_id2);
-      std::vector<Eigen::Vector2d> p1, p2;
-      std::vector<std::array<uint32_t, 2>> valid;
-      for (const auto& [a, b] : m.matches) {
-        if (a < k1.size() && b < k2.size()) {
-          p1.push_back(k1[a]);
-          p2.push_back(k2[b]);
-          valid.push_back({a, b});
-        }
-      }
-      const TwoViewVerification v = VerifyTwoView(p1, p2, verify);
-      if (v.verified) {
-        DatabaseTwoViewGeometry& g = geometries[i];
-        g.image_id1 = m.image_id1;
-        g.image_id2 = m.image_id2;
-        g.config = v.config;
-        g.F = v.F;
-        g.H = v.H;
-        for (int k : v.inliers) g.inlier_matches.push_back(valid[k]);
-        verified[i] = 1;
-      }
-      progress.Advance();
-    });
-  });
-  progress.Finish();
-  std::vector<DatabaseTwoViewGeometry> kept;
-  for (size_t i = 0; i < all.size(); ++i) {
-    if (verified[i]) kept.push_back(std::move(geometries[i]));
-  }
+  std::map<int, std::vector<Eigen::Vector2d>> keypoints;
+  const std::vector<DatabaseTwoViewGeometry> kept = VerifyPairs(db, db.ReadAllMatches(), seed, arena, &keypoints);
   db.ReplaceTwoViewGeometries(kept);
   step_seconds->emplace_back("verify matches", timer.Seconds());
   return static_cast<int>(kept.size());
@@ -576,7 +632,7 @@ MapperRun ReadMapperRun(const std::string& dir, const std::string& init_pair, do
   run.num_models = static_cast<int>(models.size());
   if (models.empty()) return run;
   run.num_registered = static_cast<int>(models[0].images.size());
-  run.second_model_size = models.size() > 1 ? static_cast<int>(models[1].images.size()) : 0;
+  run.split_off_photos = SplitOffPhotos(models);
   run.mean_reprojection_error_px = models[0].MeanReprojectionError();
   run.model = std::move(models[0]);
   return run;
@@ -687,10 +743,11 @@ std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapC
       continue;
     }
     run.two_view = CheckTwoViewAgreement(run.model, pair_observations, kTwoViewMaxErrorPx);
-    RLOG_INFO("map, run {} (first pair {}): {} model(s), the largest with {} of {} photos (reprojection error "
+    RLOG_INFO("map, run {} (first pair {}): {} model(s), the largest with {} of {} photos{} (reprojection error "
               "{:.2f} px; {} of {} photo pairs agree with it)",
-              attempt + 1, run.init_pair, run.num_models, run.num_registered, n, run.mean_reprojection_error_px,
-              run.two_view.agreeing, run.two_view.pairs);
+              attempt + 1, run.init_pair, run.num_models, run.num_registered, n,
+              run.split_off_photos > 0 ? ", " + std::to_string(run.split_off_photos) + " only in smaller ones" : "",
+              run.mean_reprojection_error_px, run.two_view.agreeing, run.two_view.pairs);
     runs.push_back(std::move(run));
     const int chosen = ChooseConsensusRun(&runs, kToleranceDeg);
     if (chosen >= 0 && !runs[chosen].agrees_with.empty() && Consistent(runs[chosen].two_view)) {
@@ -704,7 +761,7 @@ std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapC
     s.init_pair = run.init_pair;
     s.num_models = run.num_models;
     s.num_registered = run.num_registered;
-    s.second_model_size = run.second_model_size;
+    s.split_off_photos = run.split_off_photos;
     s.mean_reprojection_error_px = run.mean_reprojection_error_px;
     s.seconds = run.seconds;
     s.agrees_with = run.agrees_with;
@@ -845,8 +902,11 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
   RLOG_INFO("intrinsics refinement: {}", summary.refine_intrinsics);
 
   summary.matcher = ChooseMatcher(options, n);
+  int verified_pairs = 0;
   if (summary.matcher == "exhaustive" || summary.matcher == "sequential" || summary.matcher == "retrieval") {
-    summary.num_pairs_matched = MatchFeatures(database, summary.matcher, options, threads, &summary.step_seconds);
+    const MatchCounts counts = MatchFeatures(database, summary.matcher, options, threads, &summary.step_seconds);
+    summary.num_pairs_matched = counts.compared;
+    verified_pairs = counts.verified;
   } else {
     // COLMAP's spatial and vocabulary-tree matchers: their kd-tree search is not seeded, so matches (and
     // possibly the registration) vary slightly between runs.
@@ -857,8 +917,8 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
         .Arg("--random_seed", options.seed);
     if (summary.matcher == "vocab_tree") match.Arg("--VocabTreeMatching.vocab_tree_path", options.vocab_tree);
     RunStep("match features (" + summary.matcher + ")", match, "Matching image", n, &summary.step_seconds);
+    verified_pairs = VerifyDatabaseMatches(database, options.seed, threads, &summary.step_seconds);
   }
-  const int verified_pairs = VerifyMatches(database, options.seed, threads, &summary.step_seconds);
   {
     ColmapDatabase db(database);
     std::map<std::string, int> partners;
@@ -903,7 +963,7 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
                          << "). " << kWhatToChange;
   }
   summary.num_models = runs[chosen].num_models;
-  summary.second_model_size = runs[chosen].second_model_size;
+  summary.split_off_photos = runs[chosen].split_off_photos;
   Reconstruction model = std::move(runs[chosen].model);
   runs.clear();
   // A photo most of whose own verified pairs contradict the kept model has a wrong camera: it leaves the model
@@ -1461,7 +1521,7 @@ void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
     j["refine_intrinsics"] = summary.refine_intrinsics;
     j["principal_point_refined"] = summary.principal_point_refined;
     j["num_models"] = summary.num_models;
-    j["second_model_size"] = summary.second_model_size;
+    j["split_off_photos"] = summary.split_off_photos;
     j["consensus"] = summary.consensus;
     OrderedJson runs = OrderedJson::array();
     for (size_t i = 0; i < summary.mapper_runs.size(); ++i) {
@@ -1470,7 +1530,7 @@ void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
       e["first_pair"] = r.init_pair;
       e["num_models"] = r.num_models;
       e["num_registered"] = r.num_registered;
-      e["second_model_size"] = r.second_model_size;
+      e["split_off_photos"] = r.split_off_photos;
       e["mean_reprojection_error_px"] = r.mean_reprojection_error_px;
       e["agrees_with_runs"] = r.agrees_with;
       e["photo_pairs_checked"] = r.pairs_checked;

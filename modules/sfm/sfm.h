@@ -49,7 +49,7 @@ struct SfmMapperRun {
   std::string init_pair;                 // first pair, "a.jpg + b.jpg", or "COLMAP's choice"
   int num_models = 0;                    // models the run built
   int num_registered = 0;                // photos in its largest model
-  int second_model_size = 0;             // photos in its second-largest model
+  int split_off_photos = 0;              // photos only in its smaller models (SplitOffPhotos)
   double mean_reprojection_error_px = 0;
   double seconds = 0;
   std::vector<int> agrees_with;          // indices of the runs whose models agree with this one's
@@ -68,7 +68,7 @@ struct SfmSummary {
   int num_photos = 0;
   int num_registered = 0;
   int num_models = 0;  // reconstructions the kept mapper run produced (the largest is kept)
-  int second_model_size = 0;               // photos in the kept run's second-largest model
+  int split_off_photos = 0;                // photos only in the kept run's smaller models
   std::vector<SfmMapperRun> mapper_runs;   // colmap mode: every mapper run
   int chosen_run = -1;                     // index of the kept run
   // colmap mode: agreed (two runs and the photo pairs agree) | consistent (the photo pairs agree, no consistent

@@ -11,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kSfmStage{
-    "sfm", "Structure from motion with COLMAP: camera poses and intrinsics in a +Z-up world frame", 3};
+    "sfm", "Structure from motion with COLMAP: camera poses and intrinsics in a +Z-up world frame", 4};
 
 struct SfmOptions {
   std::string mode = "colmap";  // colmap: run COLMAP; ground_truth: <ingest>/ground_truth cameras; model: `model`.
@@ -65,8 +65,10 @@ struct SfmOptions {
            "auto matcher: exhaustive matching (cost grows with the square of the photos) up to this many photos.")
         .Min(3);
     t->Add("retrieval_neighbors", &retrieval_neighbors,
-           "retrieval matcher: the most similar photos each photo is matched with. Raise it when photos of a "
-           "large collection stay unregistered; matching time grows with it.")
+           "retrieval matcher: the most similar photos each photo is matched with; a photo left with fewer "
+           "verified partners than the median photo is matched with more (its partners' partners, then its next "
+           "most similar), while that finds it partners, up to 4 times as many. Raise it when photos of a large "
+           "collection stay unregistered; matching time grows with it.")
         .Min(2);
     t->Add("vocab_tree", &vocab_tree, "Vocabulary-tree file for vocab_tree matching (COLMAP's download page).")
         .InputFile();

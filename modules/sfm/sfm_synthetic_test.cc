@@ -31,7 +31,7 @@ TEST(SfmSynthetic, WrongFirstModelIsCaughtAndTheRunIsRepeatable) {
   // behind another: COLMAP's own choice of first pair built a wrong model from
   // it (22 of 24 photos at a median rotation error of 18-31 deg, reprojection
   // error 0.9 px) that 21-29 % of the photo pairs contradict; the stage must
-  // find the right one (measured 23 of 24 at 0.19 deg). No relighting
+  // find the right one (measured 24 of 24 at 0.18 deg, 23 on another machine). No relighting
   // references: they take time and the stage does not read them.
   const std::string config = testing::SourceDir() + "/configs/synthetic_bunny.yaml";
   std::string log;
@@ -91,17 +91,19 @@ TEST(SfmSynthetic, WrongFirstModelIsCaughtAndTheRunIsRepeatable) {
     EXPECT_LT(other->cam_from_world_rotation.angularDistance(im.cam_from_world_rotation), 1e-6) << im.name;
   }
 
-  // The retrieval matcher (what `auto` uses above sfm.exhaustive_max_photos) with 10 neighbours a photo: 168 of
-  // the 276 pairs, found by a vocabulary of the photos' own features although neighbouring photos never share
-  // their light. Measured 23 of 24 registered at a median rotation error of 0.21 deg (max 0.46); with 6
-  // neighbours (109 pairs) 21 of 24.
+  // The retrieval matcher (what `auto` uses above sfm.exhaustive_max_photos) with 10 neighbours a photo: 160-168
+  // of the 276 pairs, found by a vocabulary of the photos' own features although neighbouring photos never
+  // share their light, then 34-44 more for the photos with fewer verified partners than the median photo
+  // (RetrievalExpansion). Measured over seeds 0-5 (standing in for the small differences between machines):
+  // 23-24 of 24 registered from 204-215 pairs; without the expansion 22-24, and one seed's run was stopped
+  // as a split by a 3-photo model COLMAP had abandoned.
   const std::string retrieval_command = testing::BinDir() + "/sfm --input ingest=" + (dir / "ingest") +
                                         " --set sfm.matcher=retrieval --set sfm.retrieval_neighbors=10 --output " +
                                         (dir / "sfm_retrieval");
   ASSERT_EQ(testing::RunCommand(retrieval_command, &log), 0) << log;
   const Json retrieval = ReadJsonFile(dir / "sfm_retrieval/sfm_summary.json");
   EXPECT_EQ(retrieval.at("matcher"), "retrieval");
-  EXPECT_LE(retrieval.at("num_pairs_matched").get<int>(), 24 * 10);
+  EXPECT_LT(retrieval.at("num_pairs_matched").get<int>(), 24 * 23 / 2);  // fewer than exhaustive matching
   EXPECT_GE(retrieval.at("num_registered").get<int>(), 23) << retrieval.at("unregistered").dump();
   const CameraErrors r = CompareCameras(Reconstruction::Read(dir / "sfm_retrieval/sparse"), truth);
   EXPECT_LE(r.median_rotation_deg, 0.5);
