@@ -14,8 +14,9 @@ packages=(
   colmap gnuplot-nox blender-data
   # headless browser for the report test
   chromium
-  # Blender, for the test that imports the glTF export (modules/relight/gltf_blender_test.cc)
-  blender
+  # Blender, for the test that imports the glTF export (modules/relight/gltf_blender_test.cc); the test's
+  # scripts use NumPy in Blender's Python, which Debian's blender only recommends
+  blender python3-numpy
   # Slurm and munge: pipeline.executor slurm and its test on a single-node cluster (tools/slurm_local_cluster.sh)
   slurmctld slurmd slurm-client munge
   # libFuzzer and the sanitizers for the parser fuzz targets (fuzz/)
