@@ -187,7 +187,7 @@ int CmdRender(const CommonArgs& args, const RenderArgs& render) {
     for (const auto& a : argv) line += ShellWord(a) + " ";
     return line;
   }());
-  const ProcessResult result = RunProcess(argv);
+  const ProcessResult result = RunStageExecutable(argv);
   if (!result.ok()) {
     std::cerr << "pipeline: render_cameras failed (" << result.Describe() << ")\n";
     return result.signaled ? 128 + result.signal : (result.exit_code == kExitUserError ? kExitUserError : 1);

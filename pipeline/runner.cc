@@ -306,7 +306,7 @@ bool Runner::RunOne(StageRecord* r, bool replace_existing) {
     slurm.sbatch_args = pipeline.slurm_sbatch_args;
     result = RunOnSlurm(work, slurm);  // peak memory is not measured on the cluster
   } else {
-    result = RunProcess(argv);
+    result = RunStageExecutable(argv);
   }
   r->seconds = timer.Seconds();
   r->peak_memory_mib = result.peak_memory_mib;

@@ -22,8 +22,9 @@
 // the unseen directions with daylight fails.
 //
 // Set RELIGHT_CHAIN_WORKSPACE to keep the workspace (and reuse it across runs). RELIGHT_CHAIN_EXPORT names a
-// folder the test runs in from scratch and leaves behind: ctest sets it for slurm_integration_test, which
-// compares its Slurm run with this local one.
+// folder the test runs in from scratch and leaves behind: ctest sets it for slurm_integration_test, which runs
+// at the same time and compares its Slurm run with this local one once RELIGHT_CHAIN_EXPORT.done (the first
+// run's exit status) exists.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -55,12 +56,15 @@ TEST(ChainIntegrationTest, SyntheticTinyEndToEndIsAccurateAndCached) {
   std::string ws = keep != nullptr ? std::string(keep) : temp / "ws";
   if (exported != nullptr) {
     ws = exported;
+    fs::remove(ws + ".done");
     fs::remove_all(ws);
   }
   const std::string config = testing::SourceDir() + "/configs/synthetic_tiny.yaml";
   const std::string pipeline = testing::BinDir() + "/pipeline ";
   std::string out;
-  ASSERT_EQ(testing::RunCommand(pipeline + "run " + config + " --workspace " + ws, &out), 0) << out;
+  const int status = testing::RunCommand(pipeline + "run " + config + " --workspace " + ws, &out);
+  if (exported != nullptr) WriteFileAtomic(ws + ".done", std::to_string(status));  // slurm_integration_test waits
+  ASSERT_EQ(status, 0) << out;
 
   const std::vector<std::string> chain = {"synthesize", "ingest",  "sfm",     "mvs",      "mesh",   "linearize",
                                           "visibility", "observe", "inverse", "relight", "evaluate", "report"};

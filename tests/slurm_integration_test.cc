@@ -3,7 +3,8 @@
 // (configs/synthetic_tiny.yaml) submitted as jobs, the per-photo passes of mvs, linearize, observe and
 // relight as job arrays of 4 shards. While mvs runs, the test cancels one running shard with scancel; the run must
 // resubmit that shard alone and finish. Then every stage's cache key must equal the local run's
-// (chain_integration_test, which ctest runs first and which leaves its workspace in RELIGHT_CHAIN_EXPORT),
+// (chain_integration_test, which ctest runs at the same time and which leaves its workspace in
+// RELIGHT_CHAIN_EXPORT and its exit status in RELIGHT_CHAIN_EXPORT.done),
 // and every file of every stage must equal the local one, with the workspace's path replaced by the other's:
 // byte for byte, except that OpenEXR images are compared by pixels (OpenImageIO stamps a DateTime) and JSON
 // files without what describes a run rather than its result (seconds, reuse counts, peak memory, start and
@@ -114,11 +115,9 @@ std::string StageOutput(const Json& summary, const std::string& name) {
 TEST(SlurmIntegrationTest, ChainOnSlurmEqualsLocalRunAndRerunsACancelledShard) {
   setenv("RELIGHT_PROGRESS", "plain", 1);
   const char* exported = std::getenv("RELIGHT_CHAIN_EXPORT");
-  ASSERT_NE(exported, nullptr) << "RELIGHT_CHAIN_EXPORT is not set: run this test through ctest, which runs "
-                                  "chain_integration_test first";
+  ASSERT_NE(exported, nullptr) << "RELIGHT_CHAIN_EXPORT is not set: run this test through ctest, together with "
+                                  "chain_integration_test (ctest -R 'chain|slurm')";
   const std::string local_ws = fs::absolute(exported).lexically_normal().string();
-  ASSERT_TRUE(fs::is_regular_file(local_ws + "/summary.json"))
-      << "no local run in " << local_ws << ": chain_integration_test must pass first";
 
   testing::TempDir temp;
   const std::string cluster = temp / "cluster";
@@ -163,6 +162,17 @@ TEST(SlurmIntegrationTest, ChainOnSlurmEqualsLocalRunAndRerunsACancelledShard) {
   ASSERT_EQ(rc, 0) << run_out;
   ASSERT_FALSE(cancelled.empty()) << "no running mvs shard was seen to cancel\n" << run_out;
   EXPECT_NE(run_out.find("resubmitting it alone"), std::string::npos) << run_out;
+
+  // The local run of chain_integration_test, which runs at the same time.
+  const std::string done = std::string(exported) + ".done";
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::minutes(30);
+  while (!fs::is_regular_file(done) && std::chrono::steady_clock::now() < give_up) {
+    std::this_thread::sleep_for(std::chrono::seconds(5));
+  }
+  ASSERT_TRUE(fs::is_regular_file(done)) << "chain_integration_test's local run did not finish within 30 minutes of "
+                                            "this run: ctest runs the two together (ctest -R 'chain|slurm')";
+  ASSERT_EQ(ReadFileToString(done), "0") << "chain_integration_test's local run failed: nothing to compare with";
+  ASSERT_TRUE(fs::is_regular_file(local_ws + "/summary.json")) << "no local run in " << local_ws;
 
   const Json summary = ReadJsonFile(ws + "/summary.json");
   int compared = 0;

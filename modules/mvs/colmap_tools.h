@@ -4,36 +4,23 @@
 // output goes to the stage log; every output file is checked, since COLMAP
 // exits 0 after writing nothing (../shared/COLMAP.md).
 //
-// Written by hand (fork/exec with a pipe): the stack has no process library
-// that streams a child's merged output and ties its life to ours
-// (PR_SET_PDEATHSIG), so a killed stage leaves no orphan COLMAP behind.
-// TODO(lead): modules/sfm/colmap_command.h (written in parallel) does the same for the sfm stage; merge
-// the two into one shared runner.
+// The process is core/process.h's: it dies with the stage, so a killed stage leaves no orphan COLMAP behind.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "core/external_tools.h"  // ColmapExecutable
+#include "core/process.h"
 #include "mvs/mvs_options.h"
 
 namespace relight {
 
-// Outcome of one COLMAP command.
-struct ColmapToolRun {
-  int exit_code = -1;               // valid when !signaled
-  bool signaled = false;            // killed by a signal
-  int signal = 0;
-  double seconds = 0;               // wall time
-  std::vector<std::string> head;    // the first output lines
-  std::vector<std::string> tail;    // the last output lines
-  bool ok() const { return !signaled && exit_code == 0; }
-  // "exit code 1" / "killed by signal 9", then the last output lines.
-  std::string Describe() const;
-};
-
-// Runs `colmap <args...>`; output lines go to the log at debug level. Throws UserError when it cannot start.
-ColmapToolRun RunColmapTool(const std::vector<std::string>& args);
+// Runs `colmap <args...>`; output lines go to the stage log file and to `on_line` (may be empty). Throws
+// UserError when COLMAP cannot start; the caller checks the result and the outputs.
+ProcessResult RunColmapTool(const std::vector<std::string>& args,
+                            const std::function<void(const std::string&)>& on_line = {});
 // True when `colmap help` reports a CUDA build; `banner` receives its version line.
 bool ColmapHasCuda(std::string* banner = nullptr);
 

@@ -1,18 +1,10 @@
 #include "report/charts.h"
 
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <cerrno>
-#include <cstring>
 #include <filesystem>
 #include <sstream>
 
 #include "core/fs.h"
-
-extern char** environ;
+#include "core/process.h"
 
 namespace relight {
 namespace fs = std::filesystem;
@@ -25,42 +17,17 @@ std::string CsvField(const std::string& text) {
 }
 
 std::string RunGnuplot(const std::string& dir, const std::vector<std::string>& args) {
-  const std::string log = JoinPath(dir, "gnuplot.log");
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addchdir_np(&actions, dir.c_str());
-  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::vector<std::string> argv_s{"gnuplot"};
-  argv_s.insert(argv_s.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : argv_s) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, "gnuplot", &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) {
-    return std::string("cannot run gnuplot (") + std::strerror(rc) +
-           "); install Debian's gnuplot-nox (tools/setup_debian.sh) for the charts";
+  std::vector<std::string> argv{"gnuplot"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  ProcessOptions options;
+  options.output = ProcessOptions::Output::kLines;
+  options.working_dir = dir;
+  const ProcessResult run = RunProcess(argv, options);
+  if (!run.started()) {
+    return run.start_error + "; install Debian's gnuplot-nox (tools/setup_debian.sh) for the charts";
   }
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  std::string output;
-  try {
-    output = ReadFileToString(log);
-  } catch (...) {
-  }
-  std::error_code ec;
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
-    fs::remove(log, ec);
-    return "";
-  }
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 127) {
-    return "gnuplot is not installed; install Debian's gnuplot-nox (tools/setup_debian.sh) for the charts";
-  }
-  while (!output.empty() && (output.back() == '\n' || output.back() == '\r')) output.pop_back();
-  return "gnuplot failed: " + output;
+  if (run.ok()) return "";
+  return "gnuplot failed (" + run.DescribeWithOutput(8) + ")";
 }
 
 ChartFiles WriteChart(const std::string& dir, const std::string& name, const std::vector<std::string>& columns,

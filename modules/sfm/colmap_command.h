@@ -3,9 +3,7 @@
 // into the stage log (never onto the console), with progress parsed from
 // COLMAP's own lines.
 //
-// Written by hand: the stack has no process library that streams a child's
-// merged output line by line and ties the child's life to ours
-// (PR_SET_PDEATHSIG), which a killed pipeline needs to leave no orphan behind.
+// The process itself is core/process.h's: it dies with the stage.
 #pragma once
 
 #include <functional>
@@ -13,22 +11,9 @@
 #include <vector>
 
 #include "core/external_tools.h"  // ColmapExecutable
+#include "core/process.h"
 
 namespace relight {
-
-// Outcome of one COLMAP command.
-struct ColmapResult {
-  int exit_code = -1;     // valid when !signaled
-  bool signaled = false;  // killed by a signal (e.g. out of memory)
-  int signal = 0;
-  double seconds = 0;             // wall time
-  std::vector<std::string> tail;  // the last output lines, for error messages
-  bool ok() const { return !signaled && exit_code == 0; }
-  // "exit code 1", "killed by signal 9".
-  std::string Describe() const;
-  // The last output lines joined with " | ", for a one-line error.
-  std::string TailText(int max_lines = 4) const;
-};
 
 // A COLMAP invocation: `colmap <command> --key value ...`.
 struct ColmapCommand {
@@ -49,7 +34,7 @@ void CheckColmapAvailable();
 // Runs a COLMAP command; every output line goes to the stage log file and to
 // `on_line` (may be empty). Does not throw on failure: callers check the
 // result *and* the outputs (COLMAP often exits 0 without writing anything).
-ColmapResult RunColmap(const ColmapCommand& command, const std::function<void(const std::string&)>& on_line = {});
+ProcessResult RunColmap(const ColmapCommand& command, const std::function<void(const std::string&)>& on_line = {});
 
 // Parses "[a/b" from COLMAP progress lines such as "Processed file [3/16]"
 // after `marker`; returns false when the line does not match.

@@ -108,16 +108,16 @@ int ChooseConsensusRun(std::vector<MapperRun>* runs, double tolerance_deg) {
   return best;
 }
 
-int SplitOffPhotos(const std::vector<Reconstruction>& models) {
-  if (models.size() < 2) return 0;
+std::set<std::string> SplitOffPhotos(const std::vector<Reconstruction>& models) {
   std::set<std::string> largest, outside;
+  if (models.size() < 2) return outside;
   for (const auto& [id, image] : models[0].images) largest.insert(image.name);
   for (size_t m = 1; m < models.size(); ++m) {
     for (const auto& [id, image] : models[m].images) {
       if (!largest.count(image.name)) outside.insert(image.name);
     }
   }
-  return static_cast<int>(outside.size());
+  return outside;
 }
 
 }  // namespace relight

@@ -19,6 +19,7 @@
 
 #include <Eigen/Core>
 #include <map>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -69,7 +70,7 @@ struct MapperRun {
   std::string init_pair;          // "a.jpg + b.jpg", or "COLMAP's choice"
   int num_models = 0;             // models the run produced
   int num_registered = 0;         // photos in its largest model
-  int split_off_photos = 0;       // photos only in its smaller models (SplitOffPhotos)
+  std::set<std::string> split_off;  // photos only in its smaller models (SplitOffPhotos)
   double mean_reprojection_error_px = 0;
   double seconds = 0;
   std::vector<int> agrees_with;   // other runs whose largest model agrees with this one's
@@ -80,7 +81,7 @@ struct MapperRun {
 // Photos of `models` (largest first, as COLMAP's mapper writes them) that only the smaller models hold: a part
 // of the collection the largest model could not join. A smaller model COLMAP started from a first pair and
 // abandoned, whose photos the largest model registered again, splits nothing off.
-int SplitOffPhotos(const std::vector<Reconstruction>& models);
+std::set<std::string> SplitOffPhotos(const std::vector<Reconstruction>& models);
 
 // A model is consistent with its photo pairs when at least this fraction of the checked pairs agree.
 inline constexpr double kMinTwoViewAgreement = 0.8;

@@ -154,15 +154,15 @@ TEST(ChooseConsensusRun, KeepsTheRunsThatAgreeAndAreConsistent) {
 // it builds next: that is no split. Photos only the smaller models hold are.
 TEST(SplitOffPhotosTest, CountsPhotosTheLargestModelLacks) {
   const Reconstruction largest = Ring();  // photo_0 .. photo_7
-  EXPECT_EQ(SplitOffPhotos({}), 0);
-  EXPECT_EQ(SplitOffPhotos({largest}), 0);
+  EXPECT_TRUE(SplitOffPhotos({}).empty());
+  EXPECT_TRUE(SplitOffPhotos({largest}).empty());
   Reconstruction abandoned;  // photo_2, photo_3 and photo_4 again, under other ids
   for (uint32_t id : {3u, 4u, 5u}) {
     ImageRecord im = largest.images.at(id);
     im.image_id = id + 100;
     abandoned.images[im.image_id] = im;
   }
-  EXPECT_EQ(SplitOffPhotos({largest, abandoned}), 0);
+  EXPECT_TRUE(SplitOffPhotos({largest, abandoned}).empty());
   Reconstruction apart = abandoned;  // two of them and three photos the largest lacks
   apart.images.erase(103);
   for (int k = 0; k < 3; ++k) {
@@ -171,8 +171,8 @@ TEST(SplitOffPhotosTest, CountsPhotosTheLargestModelLacks) {
     im.name = "other_" + std::to_string(k) + ".jpg";
     apart.images[im.image_id] = im;
   }
-  EXPECT_EQ(SplitOffPhotos({largest, apart}), 3);
-  EXPECT_EQ(SplitOffPhotos({largest, apart, apart, abandoned}), 3);  // each photo counted once
+  EXPECT_EQ(SplitOffPhotos({largest, apart}).size(), 3u);
+  EXPECT_EQ(SplitOffPhotos({largest, apart, apart, abandoned}).size(), 3u);  // each photo counted once
 }
 
 }  // namespace

@@ -115,13 +115,13 @@ void PrepareColmapImages(const std::string& ingest_dir, const std::vector<Ingest
 
 // Runs one COLMAP step with a progress display fed by COLMAP's own lines.
 // `marker` selects the "[i/n" counter to follow (empty: none).
-ColmapResult RunStep(const std::string& label, const ColmapCommand& command, const std::string& marker,
+ProcessResult RunStep(const std::string& label, const ColmapCommand& command, const std::string& marker,
                      int64_t expected_total, std::vector<std::pair<std::string, double>>* step_seconds,
                      bool throw_on_failure = true) {
   RLOG_INFO("{}: {}", label, command.ToString());
   Progress progress(label, std::max<int64_t>(1, expected_total));
   int64_t shown = 0;
-  const ColmapResult result = RunColmap(command, [&](const std::string& line) {
+  const ProcessResult result = RunColmap(command, [&](const std::string& line) {
     int done = 0, total = 0;
     if (!marker.empty() && ParseBracketCount(line, marker, &done, &total)) {
       const int64_t target = expected_total > 0 ? std::min<int64_t>(done, expected_total) : done;
@@ -150,7 +150,7 @@ ColmapResult RunStep(const std::string& label, const ColmapCommand& command, con
   step_seconds->emplace_back(label, result.seconds);
   if (!result.ok() && throw_on_failure) {
     RELIGHT_USER_ERROR() << "COLMAP " << command.command << " failed (" << result.Describe()
-                         << "): " << result.TailText() << " (full output in stage.log)";
+                         << "): " << result.TailText(4) << " (full output in stage.log)";
   }
   return result;
 }
@@ -216,6 +216,22 @@ std::string ChooseMatcher(const SfmOptions& options, int num_photos) {
   if (num_photos <= options.exhaustive_max_photos) return "exhaustive";
   if (!options.vocab_tree.empty()) return "vocab_tree";
   return "retrieval";
+}
+
+// sfm.mapper auto: the hierarchical mapper from this many photos. One incremental run costs about N^2.5
+// (254 s of one core at 160 photos and 1,456 s at 320 on a 2-core VM, so about 7 h at 1,000), the hierarchical
+// one about N (at 320 photos 12 clusters of 60-70, about 116 s of CPU each, two at a time); after the global
+// bundle adjustment its cameras were as accurate (0.030 against 0.029 deg; docs/BENCHMARKS.md).
+constexpr int kHierarchicalMinPhotos = 300;
+// Hierarchical mapper: photos per leaf cluster before the overlap is added (COLMAP's default of 500 makes
+// clusters whose incremental mapping is itself the cost above) and photos shared between neighbouring clusters
+// (its default of 50 put 130 of 160 photos in every cluster).
+constexpr int kLeafMaxPhotos = 40;
+constexpr int kClusterOverlapPhotos = 10;
+
+std::string ChooseMapper(const SfmOptions& options, int num_photos) {
+  if (options.mapper != "auto") return options.mapper;
+  return num_photos >= kHierarchicalMinPhotos ? "hierarchical" : "incremental";
 }
 
 // Reads every model below `models_dir` (mapper output 0/, 1/, ...), largest first.
@@ -632,7 +648,7 @@ MapperRun ReadMapperRun(const std::string& dir, const std::string& init_pair, do
   run.num_models = static_cast<int>(models.size());
   if (models.empty()) return run;
   run.num_registered = static_cast<int>(models[0].images.size());
-  run.split_off_photos = SplitOffPhotos(models);
+  run.split_off = SplitOffPhotos(models);
   run.mean_reprojection_error_px = models[0].MeanReprojectionError();
   run.model = std::move(models[0]);
   return run;
@@ -648,6 +664,7 @@ MapperRun ReadMapperRun(const std::string& dir, const std::string& init_pair, do
 std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapCommand& base,
                                         const std::string& database, const std::string& models_root, int n,
                                         SfmSummary* summary, std::vector<PairObservations>* pair_observations_out) {
+  const bool hierarchical = base.command == "hierarchical_mapper";
   std::error_code ec;
   fs::remove_all(models_root, ec);
   EnsureDir(models_root);
@@ -700,29 +717,29 @@ std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapC
     const std::string dir = JoinPath(models_root, "run_" + std::to_string(attempt));
     EnsureDir(dir);  // mapper fails when its output folder is missing
     map.Arg("--output_path", dir);
-    // The first pair of the first model: the last one COLMAP tried before it registered a third photo.
+    // The first pair of the first model: the last one COLMAP tried before it registered a third photo. The
+    // hierarchical mapper maps its clusters in parallel, with interleaved logs: every pair it started from is
+    // withheld from the next run, so that each cluster starts elsewhere.
     int last_a = -1, last_b = -1, first_a = -1, first_b = -1;
+    std::set<std::pair<int, int>> started_from;
     RLOG_INFO("map, run {} of at most {} ({} first pair(s) withheld): {}", attempt + 1, options.max_mapper_runs,
               withheld.size(), map.ToString());
     Progress progress("map (run " + std::to_string(attempt + 1) + ")", n);
-    int64_t shown = 0;
-    const ColmapResult result = RunColmap(map, [&](const std::string& line) {
-      int a = 0, b = 0, k = 0;
+    std::set<int> registered_ids;
+    const ProcessResult result = RunColmap(map, [&](const std::string& line) {
+      int a = 0, b = 0, id = 0;
       if (std::sscanf(line.c_str(), "Initializing with image pair #%d and #%d", &a, &b) == 2) {
         last_a = a;
         last_b = b;
+        if (hierarchical) started_from.insert({std::min(a, b), std::max(a, b)});
       }
-      const size_t paren = line.rfind('(');
-      if (line.rfind("Registering image #", 0) == 0 && paren != std::string::npos &&
-          std::sscanf(line.c_str() + paren, "(%d)", &k) == 1) {
+      if (std::sscanf(line.c_str(), "Registering image #%d", &id) == 1) {
         if (first_a < 0) {
           first_a = last_a;
           first_b = last_b;
         }
-        if (k > shown) {
-          progress.Advance(std::min<int64_t>(k, n) - shown);
-          shown = std::min<int64_t>(k, n);
-        }
+        // Distinct photos registered (clusters overlap, and a photo can be registered again).
+        if (registered_ids.insert(id).second && static_cast<int>(registered_ids.size()) <= n) progress.Advance(1);
       }
     });
     progress.Finish();
@@ -732,8 +749,11 @@ std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapC
       RLOG_INFO("map, run {}: no model ({})", attempt + 1, result.Describe());
       break;  // no pair left that COLMAP can start from
     }
-    withheld.insert({std::min(first_a, first_b), std::max(first_a, first_b)});
-    MapperRun run = ReadMapperRun(dir, names[first_a] + " + " + names[first_b], result.seconds);
+    started_from.insert({std::min(first_a, first_b), std::max(first_a, first_b)});
+    withheld.insert(started_from.begin(), started_from.end());
+    std::string init_pair = names[first_a] + " + " + names[first_b];
+    if (started_from.size() > 1) init_pair += " and " + std::to_string(started_from.size() - 1) + " more";
+    MapperRun run = ReadMapperRun(dir, init_pair, result.seconds);
     if (!result.ok() && run.num_models > 0) {
       RLOG_WARN("COLMAP mapper: {} but it wrote {} model(s); using them", result.Describe(), run.num_models);
     }
@@ -746,7 +766,7 @@ std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapC
     RLOG_INFO("map, run {} (first pair {}): {} model(s), the largest with {} of {} photos{} (reprojection error "
               "{:.2f} px; {} of {} photo pairs agree with it)",
               attempt + 1, run.init_pair, run.num_models, run.num_registered, n,
-              run.split_off_photos > 0 ? ", " + std::to_string(run.split_off_photos) + " only in smaller ones" : "",
+              run.split_off.empty() ? "" : ", " + std::to_string(run.split_off.size()) + " only in smaller ones",
               run.mean_reprojection_error_px, run.two_view.agreeing, run.two_view.pairs);
     runs.push_back(std::move(run));
     const int chosen = ChooseConsensusRun(&runs, kToleranceDeg);
@@ -761,7 +781,7 @@ std::vector<MapperRun> MapWithConsensus(const SfmOptions& options, const ColmapC
     s.init_pair = run.init_pair;
     s.num_models = run.num_models;
     s.num_registered = run.num_registered;
-    s.split_off_photos = run.split_off_photos;
+    s.split_off_photos = static_cast<int>(run.split_off.size());
     s.mean_reprojection_error_px = run.mean_reprojection_error_px;
     s.seconds = run.seconds;
     s.agrees_with = run.agrees_with;
@@ -939,8 +959,21 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
   }
 
   // One thread: COLMAP's multi-threaded bundle adjustment sums in a varying order, and the small differences
-  // grew to 0.09 scene units between two runs on the same photos; mapping is a small part of the stage's time.
-  ColmapCommand map{"mapper", {}};
+  // grew to 0.09 scene units between two runs on the same photos. The hierarchical mapper uses the threads to map
+  // clusters in parallel instead.
+  summary.mapper = ChooseMapper(options, n);
+  const bool hierarchical = summary.mapper == "hierarchical";
+  ColmapCommand map{hierarchical ? "hierarchical_mapper" : "mapper", {}};
+  if (hierarchical) {
+    map.Arg("--num_workers", thread_count)
+        .Arg("--leaf_max_num_images", kLeafMaxPhotos)
+        .Arg("--image_overlap", kClusterOverlapPhotos);
+  }
+  RLOG_INFO("mapper: {}{}", summary.mapper,
+            hierarchical ? " (clusters of up to " + std::to_string(kLeafMaxPhotos) + " photos plus " +
+                               std::to_string(kClusterOverlapPhotos) +
+                               " shared with each neighbouring cluster, mapped in parallel and merged)"
+                         : "");
   map.Arg("--database_path", database)
       .Arg("--image_path", image_dir)
       .Arg("--Mapper.num_threads", 1)
@@ -963,7 +996,7 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
                          << "). " << kWhatToChange;
   }
   summary.num_models = runs[chosen].num_models;
-  summary.split_off_photos = runs[chosen].split_off_photos;
+  const std::set<std::string> split_off = runs[chosen].split_off;
   Reconstruction model = std::move(runs[chosen].model);
   runs.clear();
   // A photo most of whose own verified pairs contradict the kept model has a wrong camera: it leaves the model
@@ -984,13 +1017,25 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
                   p.colmap_name, p.pairs_agreeing, p.pairs_checked);
       }
     }
-    if (!contradicted.empty()) {
-      RLOG_WARN("{} photo(s) left out, their cameras contradicted by their own photo pairs: {}", contradicted.size(),
-                JoinNames(std::vector<std::string>(contradicted.begin(), contradicted.end())));
-      RemoveImages(contradicted, &model);
+    // The hierarchical mapper merges clusters only where they share enough registered photos: a cluster it
+    // could not merge stays a smaller model, and the photos no cluster registered stay out.
+    int outside = 0;
+    for (const auto& p : summary.photos) outside += p.num_keypoints > 0 && model.FindImage(p.colmap_name) == nullptr;
+    const bool register_outside = hierarchical && outside > 0;
+    if (!contradicted.empty() || register_outside) {
+      if (!contradicted.empty()) {
+        RLOG_WARN("{} photo(s) left out, their cameras contradicted by their own photo pairs: {}",
+                  contradicted.size(), JoinNames(std::vector<std::string>(contradicted.begin(), contradicted.end())));
+        RemoveImages(contradicted, &model);
+      }
+      if (register_outside) {
+        RLOG_INFO("{} photo(s) with features outside the merged model ({} in clusters that were not merged): "
+                  "registering them to it",
+                  outside, split_off.size());
+      }
       // Registered again against the model without them (COLMAP's image_registrator), they often find their
-      // place (a wrong first pair misplaces its photos, not the model); a photo whose pairs still contradict it
-      // stays out.
+      // place (a wrong first pair misplaces its photos, not the model; a cluster left unmerged shares photos
+      // with its neighbours); a photo whose pairs contradict the model stays out.
       ColmapCommand reg{"image_registrator", {}};
       reg.Arg("--database_path", database);
       for (const auto& [key, value] : map.args) {
@@ -1023,6 +1068,9 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
       model = std::move(registered);
     }
   }
+  // Split off: the photos of the run's smaller models that are still not in the kept one.
+  summary.split_off_photos = static_cast<int>(std::count_if(
+      split_off.begin(), split_off.end(), [&](const std::string& name) { return model.FindImage(name) == nullptr; }));
   // The principal point: a camera shared by many photos constrains it (an off-centre principal point otherwise
   // turns every camera by atan(offset / focal): 0.9 deg on the Middlebury temple, 18 px off in 1520).
   bool refine_pp = options.refine_principal_point == "always";
@@ -1032,14 +1080,16 @@ void RunColmapMode(const SfmOptions& options, const std::string& ingest_dir, con
     for (const auto& [camera, count] : photos_per_camera) refine_pp = refine_pp || count >= 10;
   }
   summary.principal_point_refined = refine_pp;
-  if (summary.refine_intrinsics == "final" || refine_pp) {
-    // One global bundle adjustment of the largest model with the intrinsics to refine free.
+  if (summary.refine_intrinsics == "final" || refine_pp || hierarchical) {
+    // One global bundle adjustment of the largest model with the intrinsics to refine free (the hierarchical
+    // mapper adjusts each cluster alone, then only aligns them).
     ColmapCommand ba{"bundle_adjuster", {}};
     ba.Arg("--BundleAdjustment.refine_focal_length", summary.refine_intrinsics != "never")
         .Arg("--BundleAdjustment.refine_extra_params", summary.refine_intrinsics != "never")
         .Arg("--BundleAdjustment.refine_principal_point", refine_pp)
         .Arg("--random_seed", options.seed);
-    Reconstruction refined = RunModelCommand(ba, model, work, "refine intrinsics", &summary.step_seconds);
+    Reconstruction refined = RunModelCommand(
+        ba, model, work, hierarchical ? "global bundle adjustment" : "refine intrinsics", &summary.step_seconds);
     RLOG_INFO("final bundle adjustment: reprojection error {:.3f} -> {:.3f} px", model.MeanReprojectionError(),
               refined.MeanReprojectionError());
     model = std::move(refined);
@@ -1325,7 +1375,8 @@ std::string SfmSummary::BriefReport() const {
   s << "sfm (" << mode << "): " << num_registered << "/" << num_photos << " photos registered, " << num_points3d
     << " 3D points, mean reprojection error " << mean_reprojection_error_px << " px";
   if (mode == "colmap") {
-    s << ", matcher " << matcher << ", intrinsics " << shared_intrinsics << " (refined: " << refine_intrinsics << ")";
+    s << ", matcher " << matcher << ", mapper " << mapper << ", intrinsics " << shared_intrinsics
+      << " (refined: " << refine_intrinsics << ")";
   }
   s << "; steps:";
   for (const auto& [name, seconds] : step_seconds) s << " " << name << " " << Progress::FormatSeconds(seconds) << ",";
@@ -1517,6 +1568,7 @@ void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
   if (summary.mode == "colmap") {
     j["matcher"] = summary.matcher;
     if (summary.num_pairs_matched >= 0) j["num_pairs_matched"] = summary.num_pairs_matched;
+    j["mapper"] = summary.mapper;
     j["shared_intrinsics"] = summary.shared_intrinsics;
     j["refine_intrinsics"] = summary.refine_intrinsics;
     j["principal_point_refined"] = summary.principal_point_refined;

@@ -62,6 +62,7 @@ struct SfmSummary {
   std::string mode;
   std::string matcher;            // matcher used (colmap mode)
   int64_t num_pairs_matched = -1;  // photo pairs whose descriptors were compared (our matchers; -1: COLMAP's)
+  std::string mapper;             // "incremental" or "hierarchical" (colmap mode)
   std::string shared_intrinsics;  // "single" or "per_image" (colmap mode)
   std::string refine_intrinsics;  // "mapping", "final" or "never" (colmap mode)
   bool principal_point_refined = false;  // in the final bundle adjustment (colmap mode)

@@ -11,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kSfmStage{
-    "sfm", "Structure from motion with COLMAP: camera poses and intrinsics in a +Z-up world frame", 4};
+    "sfm", "Structure from motion with COLMAP: camera poses and intrinsics in a +Z-up world frame", 5};
 
 struct SfmOptions {
   std::string mode = "colmap";  // colmap: run COLMAP; ground_truth: <ingest>/ground_truth cameras; model: `model`.
@@ -30,15 +30,16 @@ struct SfmOptions {
   int abs_pose_min_num_inliers = 15;        // Inliers needed to register a photo (COLMAP default 30; see COLMAP.md).
   double abs_pose_min_inlier_ratio = 0.25;  // Inlier ratio needed to register a photo.
   std::string refine_intrinsics =
-      "auto";                           // When focal length and distortion are refined: auto | mapping | final | never.
+      "auto";  // When focal length and distortion are refined: auto | mapping | final | never.
   std::string refine_principal_point = "auto";  // auto | never | always: principal point refined in the final BA.
-  int min_registered = 3;               // Fewer registered photos than this is an error.
-  bool allow_partial = false;           // Go on when SfM is partial (< half registered, split) or unreliable.
-  int max_mapper_runs = 4;              // Mapper runs from different first pairs, until two agree.
-  bool align_up = true;                 // Rotate so that the mean camera up (-y of the images) is +Z.
-  int undistort_max_image_size = 0;     // Longest side of dense/ images; 0 keeps the ingested size.
-  int seed = 0;                         // COLMAP's random seed (runs still vary slightly with threads).
-  bool keep_database = false;           // Keep colmap/database.db (features, matches) for debugging.
+  int min_registered = 3;                       // Fewer registered photos than this is an error.
+  bool allow_partial = false;                   // Go on when SfM is partial (< half registered, split) or unreliable.
+  std::string mapper = "auto";       // auto | incremental | hierarchical: COLMAP's mapper or its divided one.
+  int max_mapper_runs = 4;           // Mapper runs from different first pairs, until two agree.
+  bool align_up = true;              // Rotate so that the mean camera up (-y of the images) is +Z.
+  int undistort_max_image_size = 0;  // Longest side of dense/ images; 0 keeps the ingested size.
+  int seed = 0;                      // COLMAP's random seed (runs still vary slightly with threads).
+  bool keep_database = false;        // Keep colmap/database.db (features, matches) for debugging.
 
   void Declare(OptionTable* t) {
     t->Add("mode", &mode,
@@ -104,6 +105,14 @@ struct SfmOptions {
            "Go on with the largest model when fewer than half of the photos with features register, when they "
            "split into separate reconstructions, or when independent mapper runs disagree; by default the stage "
            "stops and says which photos failed and why. Set it to relight what did register.");
+    t->Add("mapper", &mapper,
+           "incremental: COLMAP's mapper, one model grown photo by photo (its time grows with about the 2.5th "
+           "power of the photos); hierarchical: COLMAP's hierarchical mapper, which splits the photos into "
+           "clusters (up to 40 photos, plus 10 shared with each neighbouring cluster), maps them in parallel and "
+           "merges them, registers the photos of clusters it could not merge to the merged model and adjusts it "
+           "as a whole (time grows with the photos); auto: hierarchical from 300 photos, above which the "
+           "incremental mapper's time dominates the stage.")
+        .Choices({"auto", "incremental", "hierarchical"});
     t->Add("max_mapper_runs", &max_mapper_runs,
            "Incremental mapping is repeated from different first pairs until two runs place the cameras the same "
            "way (a wrong reconstruction can look normal); at most this many runs. 1 skips the check (saves time "
