@@ -74,12 +74,14 @@ ProcessResult RunProcess(const std::vector<std::string>& argv_in, const ProcessO
     env = envp.data();
   }
   const bool lines = options.output == ProcessOptions::Output::kLines;
+  const bool capture = options.output == ProcessOptions::Output::kCapture;
   const bool search_path = argv_in[0].find('/') == std::string::npos;
   const char* working_dir = options.working_dir.empty() ? nullptr : options.working_dir.c_str();
 
   int failure_pipe[2];
-  int out_pipe[2] = {-1, -1};
-  if (pipe2(failure_pipe, O_CLOEXEC) != 0 || (lines && pipe2(out_pipe, O_CLOEXEC) != 0)) {
+  int out_pipe[2] = {-1, -1}, err_pipe[2] = {-1, -1};
+  if (pipe2(failure_pipe, O_CLOEXEC) != 0 || ((lines || capture) && pipe2(out_pipe, O_CLOEXEC) != 0) ||
+      (capture && pipe2(err_pipe, O_CLOEXEC) != 0)) {
     result.start_error = "cannot create a pipe to run '" + argv_in[0] + "': " + std::strerror(errno);
     return result;
   }
@@ -98,9 +100,9 @@ ProcessResult RunProcess(const std::vector<std::string>& argv_in, const ProcessO
       (void)!write(failure_pipe[1], &failure, sizeof(failure));
       _exit(127);
     }
-    if (lines) {
+    if (lines || capture) {
       dup2(out_pipe[1], STDOUT_FILENO);
-      dup2(out_pipe[1], STDERR_FILENO);
+      dup2(capture ? err_pipe[1] : out_pipe[1], STDERR_FILENO);
       const int devnull = open("/dev/null", O_RDONLY);
       if (devnull >= 0) dup2(devnull, STDIN_FILENO);
     }
@@ -114,11 +116,13 @@ ProcessResult RunProcess(const std::vector<std::string>& argv_in, const ProcessO
     _exit(127);
   }
   close(failure_pipe[1]);
-  if (lines) close(out_pipe[1]);
+  for (int* p : {out_pipe, err_pipe})
+    if (p[1] >= 0) close(p[1]);
   if (pid < 0) {
     result.start_error = "cannot start '" + argv_in[0] + "' (fork failed: " + std::strerror(errno) + ")";
     close(failure_pipe[0]);
-    if (lines) close(out_pipe[0]);
+    for (int* p : {out_pipe, err_pipe})
+      if (p[0] >= 0) close(p[0]);
     return result;
   }
   // Empty once exec succeeded (the pipe closed with it); a StartFailure when it did not.
@@ -161,6 +165,32 @@ ProcessResult RunProcess(const std::vector<std::string>& argv_in, const ProcessO
     close(out_pipe[0]);
     result.tail.assign(tail.begin(), tail.end());
   }
+  if (capture) {
+    // Both pipes at once, so a child that fills one while we read the other cannot block.
+    struct pollfd fds[2] = {{out_pipe[0], POLLIN, 0}, {err_pipe[0], POLLIN, 0}};
+    std::string* sinks[2] = {&result.out, &result.err};
+    int open_fds = 2;
+    char buffer[4096];
+    while (open_fds > 0) {
+      if (poll(fds, 2, -1) < 0) {
+        if (errno == EINTR) continue;
+        break;
+      }
+      for (int k = 0; k < 2; ++k) {
+        if (fds[k].fd < 0 || fds[k].revents == 0) continue;
+        const ssize_t n = read(fds[k].fd, buffer, sizeof(buffer));
+        if (n > 0) {
+          sinks[k]->append(buffer, size_t(n));
+        } else if (n == 0 || errno != EINTR) {
+          close(fds[k].fd);
+          fds[k].fd = -1;
+          --open_fds;
+        }
+      }
+    }
+    for (const auto& f : fds)
+      if (f.fd >= 0) close(f.fd);
+  }
 
   int status = 0;
   struct rusage usage {};
@@ -201,62 +231,14 @@ ProcessResult RunColmapProcess(const std::vector<std::string>& args,
 }
 
 CommandOutput RunCommandCapture(const std::vector<std::string>& argv) {
-  CommandOutput result;
-  if (argv.empty()) return result;
-  int out_pipe[2], err_pipe[2];
-  if (pipe2(out_pipe, O_CLOEXEC) != 0) return result;
-  if (pipe2(err_pipe, O_CLOEXEC) != 0) {
-    close(out_pipe[0]);
-    close(out_pipe[1]);
-    return result;
-  }
-  std::vector<std::string> argv_strings = argv;
-  std::vector<char*> args;
-  for (auto& a : argv_strings) args.push_back(a.data());
-  args.push_back(nullptr);
-  const pid_t pid = fork();
-  if (pid == 0) {
-    dup2(out_pipe[1], STDOUT_FILENO);
-    dup2(err_pipe[1], STDERR_FILENO);
-    execvp(args[0], args.data());
-    _exit(127);
-  }
-  close(out_pipe[1]);
-  close(err_pipe[1]);
-  if (pid < 0) {
-    close(out_pipe[0]);
-    close(err_pipe[0]);
-    return result;
-  }
-  // Both pipes at once, so a child that fills one while we read the other cannot block.
-  struct pollfd fds[2] = {{out_pipe[0], POLLIN, 0}, {err_pipe[0], POLLIN, 0}};
-  std::string* sinks[2] = {&result.out, &result.err};
-  int open_fds = 2;
-  char buf[4096];
-  while (open_fds > 0) {
-    if (poll(fds, 2, -1) < 0) {
-      if (errno == EINTR) continue;
-      break;
-    }
-    for (int k = 0; k < 2; ++k) {
-      if (fds[k].fd < 0 || fds[k].revents == 0) continue;
-      const ssize_t n = read(fds[k].fd, buf, sizeof(buf));
-      if (n > 0) {
-        sinks[k]->append(buf, static_cast<size_t>(n));
-      } else if (n == 0 || errno != EINTR) {
-        close(fds[k].fd);
-        fds[k].fd = -1;
-        --open_fds;
-      }
-    }
-  }
-  for (auto& f : fds)
-    if (f.fd >= 0) close(f.fd);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  return result;
+  ProcessOptions options;
+  options.output = ProcessOptions::Output::kCapture;
+  ProcessResult r = RunProcess(argv, options);
+  CommandOutput c;
+  c.exit_code = !r.started() ? 127 : r.signaled ? -1 : r.exit_code;
+  c.out = std::move(r.out);
+  c.err = r.started() ? std::move(r.err) : r.start_error;
+  return c;
 }
 
 }  // namespace relight

@@ -20,6 +20,7 @@ struct ProcessOptions {
   enum class Output {
     kInherit,  // the child writes to our stdout and stderr (a terminal stays a terminal)
     kLines,    // stdout and stderr merged and passed to on_line a line at a time (no end-of-line characters)
+    kCapture,  // stdout and stderr kept apart in ProcessResult::out and ::err (short commands)
   };
   Output output = Output::kInherit;
   std::function<void(const std::string&)> on_line;  // kLines: each non-empty line
@@ -41,6 +42,7 @@ struct ProcessResult {
   // Largest resident set of the child or of any descendant it waited for [MiB] (wait4's resource usage).
   double peak_memory_mib = 0;
   std::vector<std::string> tail;  // kLines: the last lines of output (at most 20)
+  std::string out, err;           // kCapture: everything written to stdout and stderr
 
   bool started() const { return start_error.empty(); }
   bool ok() const { return started() && !signaled && exit_code == 0; }
@@ -56,12 +58,12 @@ struct ProcessResult {
 // Never throws for what the child does; a failure to start is in start_error.
 ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOptions& options = {});
 
-// A short command's output (sbatch, squeue): exit code (127: could not start), stdout and stderr apart.
+// A short command's output (sbatch, squeue): RunProcess with Output::kCapture; exit code 127 when it could
+// not start (err says why), -1 when it was killed.
 struct CommandOutput {
   int exit_code = -1;
   std::string out, err;
 };
-// Runs `argv` (looked up on PATH, no shell) and collects its output. Never throws.
 CommandOutput RunCommandCapture(const std::vector<std::string>& argv);
 
 }  // namespace relight

@@ -116,7 +116,15 @@ TEST(ProcessTest, CaptureKeepsStdoutAndStderrApart) {
   EXPECT_EQ(c.exit_code, 2);
   EXPECT_EQ(c.out, "out\n");
   EXPECT_EQ(c.err, "err\n");
-  EXPECT_EQ(RunCommandCapture({"relight-no-such-program"}).exit_code, 127);
+  const CommandOutput missing = RunCommandCapture({"relight-no-such-program"});
+  EXPECT_EQ(missing.exit_code, 127);
+  EXPECT_NE(missing.err.find("relight-no-such-program"), std::string::npos) << missing.err;
+  // More than a pipe holds on both streams at once: read together, neither blocks the child.
+  const CommandOutput big = RunCommandCapture(
+      {"sh", "-c", "i=0; while [ $i -lt 20000 ]; do echo 0123456789; echo abcdefghij >&2; i=$((i+1)); done"});
+  EXPECT_EQ(big.exit_code, 0);
+  EXPECT_EQ(big.out.size(), 220000u);
+  EXPECT_EQ(big.err.size(), 220000u);
 }
 
 }  // namespace

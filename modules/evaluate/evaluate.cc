@@ -788,6 +788,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
       if (!ReadResolvedOptions(in.inverse_dir, "inverse", &inverse_options))
         RLOG_WARN("no {}/config.yaml: leave-one-out uses the inverse stage's default options", in.inverse_dir);
       InverseProblem problem = LoadInverseProblem(in.mesh_dir, in.visibility_dir, in.observe_dir);
+      problem.scratch_dir = output_dir;
       // The model's occluders, prepared as the relight stage renders them.
       const RecoveredModel full = LoadRecoveredModel(in.inverse_dir, in.mesh_dir);
       // Render the held-out photo as the relight stage renders its re-renderings (same renderer and samples).

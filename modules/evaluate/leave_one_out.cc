@@ -116,6 +116,7 @@ LeaveOneOutFit LeaveOneOut(InverseProblem* problem, const InverseOptions& option
   sub.mesh = problem->mesh;
   sub.footprint_scale = problem->footprint_scale;
   sub.mesh_source = problem->mesh_source;
+  sub.scratch_dir = problem->scratch_dir;
   sub.visibility = std::move(problem->visibility);
   std::vector<uint32_t> others;
   for (uint32_t i = 0; i < n; ++i)
@@ -178,6 +179,7 @@ ReflectanceState SolveWithout(InverseProblem* problem, const InverseOptions& opt
   sub.mesh = problem->mesh;
   sub.footprint_scale = problem->footprint_scale;
   sub.mesh_source = problem->mesh_source;
+  sub.scratch_dir = problem->scratch_dir;
   sub.visibility = std::move(problem->visibility);
   ReflectanceState result;
   try {

@@ -435,14 +435,16 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   to.max_coefficients = o.transport_max_coefficients;
   to.route = o.transport;
   to.supersampling = o.transport_supersampling;
+  to.spill_dir = problem.scratch_dir;
   const TransportStore transport = BuildTransport(problem.mesh, problem.visibility, obs, to);
   summary.transport_seconds = step.Seconds();
   summary.transport_coefficients = transport.num_coefficients();
   const size_t rows = nv * 1 + obs.records.size() * std::max(0, transport.num_lobes() - 1);
   summary.transport_mean_coefficients_per_row = double(transport.num_coefficients()) / std::max<size_t>(1, rows);
-  RLOG_INFO("transport: {} observations x {} lobes, {:.1f} coefficients per row, {:.0f} MB, {:.1f} s; {}",
+  RLOG_INFO("transport: {} observations x {} lobes, {:.1f} coefficients per row, {:.0f} MiB {}, {:.1f} s; {}",
             obs.records.size(), basis.size(), summary.transport_mean_coefficients_per_row,
-            transport.bytes() / 1048576.0, summary.transport_seconds,
+            transport.bytes() / 1048576.0, transport.on_disk() ? "in a scratch file" : "in memory",
+            summary.transport_seconds,
             summary.transport_footprint ? "rows averaged over the observations' footprints"
                                         : "rows at the vertex normals (inverse.transport_footprint)");
 
@@ -763,6 +765,7 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   problem.photos = ReadObservedPhotos(JoinPath(observe_dir, "photos.json"));
   problem.footprint_scale = ReadObservedFootprintScale(JoinPath(observe_dir, "photos.json"));
   problem.mesh_source = ReadMeshSource(mesh_dir);
+  problem.scratch_dir = output_dir;
   if (problem.visibility.per_vertex.size() != problem.mesh.num_vertices() ||
       problem.observations.num_vertices != problem.mesh.num_vertices()) {
     RELIGHT_USER_ERROR() << "mesh (" << problem.mesh.num_vertices() << " vertices), visibility ("

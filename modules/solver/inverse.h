@@ -26,6 +26,9 @@ struct InverseProblem {
   std::vector<ObservedPhoto> photos;
   double footprint_scale = 1.0;      // observe.footprint_scale: the surface disc each observation averages
   std::string mesh_source;           // mesh.source of the mesh stage (mvs, file, ground_truth; empty: unknown)
+  // Folder for the transport rows' scratch file (TransportOptions::spill_dir; the stages use their
+  // output folder); empty keeps the rows in memory.
+  std::string scratch_dir;
 };
 
 // Optional known quantities (synthetic scenes): per-photo octahedral RGB maps

@@ -196,6 +196,9 @@ PhotoSystem AssemblePhotoSystem(const TransportStore& transport, const Observati
       for (int c = 0; c < 3; ++c) HaarInverse(sys.a[c].row(r).data(), n, sys.a[c].row(r).data());
     }
   }
+  // The photo's rows are in the system now (rows on disk leave the resident set).
+  if (!obs.empty())
+    transport.Evict(*std::min_element(obs.begin(), obs.end()), *std::max_element(obs.begin(), obs.end()) + 1);
   return sys;
 }
 
@@ -398,6 +401,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
       }
     }
   });
+  transport.EvictAll();  // the vertex rows every photo shared
   lighting->UpdateCoefficients();
   result.seconds = timer.Seconds();
   return result;
@@ -503,6 +507,7 @@ std::vector<MapResolution> LightingResolution(const TransportStore& transport, c
       }
     }
   });
+  transport.EvictAll();
   return out;
 }
 

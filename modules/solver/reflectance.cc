@@ -67,7 +67,11 @@ std::vector<float> ComputeLobeResponses(const TransportStore& transport, const O
         o[b * 3 + 2] = s2;
       }
     }
+    // Rows on disk leave the resident set once read (ids ascend in every caller; the range covers them anyway).
+    const auto [lo, hi] = std::minmax_element(ids.begin() + r.begin(), ids.begin() + r.end());
+    transport.Evict(*lo, *hi + size_t(1));
   });
+  transport.EvictAll();  // the vertex rows every block shared
   return out;
 }
 

@@ -1,15 +1,18 @@
 #include "solver/transport.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <memory>
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/scratch_file.h"
 #include "observe/observe.h"
 #include "solver/reflectance.h"
 #include "sphere/frame.h"
@@ -63,10 +66,26 @@ int TransportSupersampling(int visibility_resolution, int env_resolution, int re
   return std::max(1, static_cast<int>(std::ceil(env_resolution / (std::sqrt(2.0) * visibility_resolution) - 1e-9)));
 }
 
+struct TransportStore::Pool {
+  std::vector<char> memory;           // in memory
+  std::unique_ptr<ScratchFile> file;  // or on disk
+};
+
+namespace {
+
+// Bytes of a record of n coefficients: n floats, n uint16 indices, padded to 4 bytes.
+size_t RecordBytes(uint32_t n) { return (size_t(n) * 6 + 3) & ~size_t(3); }
+
+}  // namespace
+
+TransportStore::TransportStore() : pool_(std::make_shared<Pool>()) {}
+
 TransportStore::Row TransportStore::Get(size_t observation, uint32_t vertex, int lobe) const {
   const size_t r = view_dependent_[lobe] ? vertex_rows_ + observation * num_dependent_ + slot_[lobe]
                                          : size_t(vertex) * num_independent_ + slot_[lobe];
-  return {indices_.data() + offsets_[r], values_.data() + offsets_[r], sizes_[r]};
+  const char* record = data_ + offsets_[r];
+  const uint32_t n = sizes_[r];
+  return {reinterpret_cast<const uint16_t*>(record + size_t(n) * 4), reinterpret_cast<const float*>(record), n};
 }
 
 float TransportStore::Dot(size_t observation, uint32_t vertex, int lobe, const float* dense) const {
@@ -74,6 +93,35 @@ float TransportStore::Dot(size_t observation, uint32_t vertex, int lobe, const f
   float s = 0.0f;
   for (uint32_t k = 0; k < row.size; ++k) s += row.value[k] * dense[row.index[k]];
   return s;
+}
+
+size_t TransportStore::bytes() const {
+  const size_t pool = pool_->file ? pool_->file->size() : pool_->memory.size();
+  return pool + offsets_.size() * sizeof(uint64_t) + sizes_.size() * sizeof(uint32_t);
+}
+
+bool TransportStore::on_disk() const { return pool_->file != nullptr; }
+
+void TransportStore::Evict(size_t observation_begin, size_t observation_end) const {
+  if (!pool_->file || num_dependent_ == 0 || observation_begin >= observation_end) return;
+  // The observations' rows are contiguous within each wave: per wave, the span from the first to the end of the last.
+  const size_t num_waves = wave_begin_.size();
+  std::vector<uint64_t> lo(num_waves, UINT64_MAX), hi(num_waves, 0);
+  const size_t r0 = vertex_rows_ + observation_begin * num_dependent_;
+  const size_t r1 = std::min(offsets_.size(), vertex_rows_ + observation_end * num_dependent_);
+  for (size_t r = r0; r < r1; ++r) {
+    if (sizes_[r] == 0) continue;
+    const size_t w =
+        size_t(std::upper_bound(wave_begin_.begin(), wave_begin_.end(), offsets_[r]) - wave_begin_.begin()) - 1;
+    lo[w] = std::min<uint64_t>(lo[w], offsets_[r]);
+    hi[w] = std::max<uint64_t>(hi[w], offsets_[r] + RecordBytes(sizes_[r]));
+  }
+  for (size_t w = 0; w < num_waves; ++w)
+    if (lo[w] < hi[w]) pool_->file->DropPages(lo[w], hi[w]);
+}
+
+void TransportStore::EvictAll() const {
+  if (pool_->file) pool_->file->DropPages(0, pool_->file->size());
 }
 
 namespace {
@@ -86,11 +134,24 @@ struct FootprintSample {
   Eigen::Vector3f mirror;  // view direction mirrored about the sample's normal
 };
 
-// One sparse row under construction.
-struct PendingRow {
-  size_t row;
-  std::vector<uint16_t> index;
-  std::vector<float> value;
+// Rows of one block of vertices as records (TransportStore's layout), in the order they were built.
+struct BlockRows {
+  struct Entry {
+    size_t row;
+    size_t offset;  // into bytes
+    uint32_t size;
+  };
+  std::vector<Entry> entries;
+  std::vector<char> bytes;
+
+  void Add(size_t row, const std::vector<uint16_t>& index, const std::vector<float>& value) {
+    const uint32_t n = static_cast<uint32_t>(index.size());
+    entries.push_back({row, bytes.size(), n});
+    bytes.resize(bytes.size() + RecordBytes(n));
+    char* p = bytes.data() + entries.back().offset;
+    std::memcpy(p, value.data(), size_t(n) * 4);
+    std::memcpy(p + size_t(n) * 4, index.data(), size_t(n) * 2);
+  }
 };
 
 // Per-vertex precomputation: the visible local texels with their weights
@@ -363,14 +424,17 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
   std::vector<float> lobe_min_spread(num_lobes);
   for (int b = 0; b < num_lobes; ++b) lobe_min_spread[b] = static_cast<float>(LobeFootprintSpread(o.basis[b]));
 
-  // Rows are built per block of vertices and merged in block order.
+  // Rows are built per block of vertices, in waves of blocks (about o.wave_bytes of rows each); each
+  // wave's rows are appended to the pool in row order (TransportStore).
   constexpr size_t kBlock = 256;
   const size_t num_blocks = (nv + kBlock - 1) / kBlock;
-  std::vector<std::vector<PendingRow>> blocks(num_blocks);
+  std::vector<BlockRows> blocks(num_blocks);
   Progress progress("transport rows", static_cast<int64_t>(nv));
-  tbb::parallel_for(size_t(0), num_blocks, [&](size_t blk) {
+  auto build_block = [&](size_t blk) {
     const size_t v_begin = blk * kBlock, v_end = std::min(nv, v_begin + kBlock);
-    std::vector<PendingRow>& out = blocks[blk];
+    BlockRows& out = blocks[blk];
+    std::vector<uint16_t> row_index;  // the row being built
+    std::vector<float> row_value;
     std::vector<float> pixel(haar ? store.dim_ : 0), coeffs(haar ? store.dim_ : 0);
     std::vector<float> texel_integrals(size_t(n_local) * n_local);
     std::vector<double> sh_coeffs(haar ? 0 : store.dim_);
@@ -381,16 +445,14 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
     Truncator truncator;
     // Haar row from texel values: splat onto the global map, transform, truncate.
     auto emit_haar = [&](size_t row, const std::vector<float>& values, const std::vector<int>& texels) {
-      PendingRow pr;
-      pr.row = row;
       std::fill(pixel.begin(), pixel.end(), 0.0f);
       for (size_t q = 0; q < texels.size(); ++q) {
         const int j = texels[q];
         for (int k = 0; k < 4; ++k) pixel[t.splat_index[j][k]] += values[q] * t.splat_weight[j][k];
       }
       HaarForward(pixel.data(), n_global, coeffs.data());
-      truncator.Run(coeffs.data(), store.dim_, o.keep_energy, o.max_coefficients, &pr.index, &pr.value);
-      return pr;
+      truncator.Run(coeffs.data(), store.dim_, o.keep_energy, o.max_coefficients, &row_index, &row_value);
+      out.Add(row, row_index, row_value);
     };
     for (size_t v = v_begin; v < v_end; ++v) {
       const std::vector<float> vis = visibility.DenseMap(v);
@@ -408,10 +470,8 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
           std::fill(global.begin(), global.end(), 0.0);
           rotation->AccumulateTransposed(normal, product.data(), 1.0, global.data());
           for (int k = 0; k < store.dim_; ++k) coeffs[k] = static_cast<float>(global[k]);
-          PendingRow pr;
-          pr.row = row;
-          truncator.Run(coeffs.data(), store.dim_, o.keep_energy, o.max_coefficients, &pr.index, &pr.value);
-          out.push_back(std::move(pr));
+          truncator.Run(coeffs.data(), store.dim_, o.keep_energy, o.max_coefficients, &row_index, &row_value);
+          out.Add(row, row_index, row_value);
         };
         const int vg = o.view_grid;
         for (int b = 0; b < num_lobes; ++b) {
@@ -455,18 +515,18 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
       std::vector<int> support;
       auto finish = [&](size_t row) {
         if (haar) {
-          out.push_back(emit_haar(row, values, support));
+          emit_haar(row, values, support);
         } else {
           std::fill(texel_integrals.begin(), texel_integrals.end(), 0.0f);
           for (size_t q = 0; q < support.size(); ++q) texel_integrals[support[q]] = values[q];
           sh->ProjectIntegrals(texel_integrals.data(), frame_d, sh_coeffs.data());
-          PendingRow pr;
-          pr.row = row;
+          row_index.resize(store.dim_);
+          row_value.resize(store.dim_);
           for (int k = 0; k < store.dim_; ++k) {
-            pr.index.push_back(static_cast<uint16_t>(k));
-            pr.value.push_back(static_cast<float>(sh_coeffs[k]));
+            row_index[k] = static_cast<uint16_t>(k);
+            row_value[k] = static_cast<float>(sh_coeffs[k]);
           }
-          out.push_back(std::move(pr));
+          out.Add(row, row_index, row_value);
         }
       };
       // The footprint's normals (vertex-local).
@@ -616,27 +676,54 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
       }
       progress.Advance();
     }
-  });
-  progress.Finish();
+  };
 
-  // Merge blocks into the pool.
   store.offsets_.assign(total_rows, 0);
   store.sizes_.assign(total_rows, 0);
-  size_t total = 0;
-  for (const auto& blk : blocks)
-    for (const auto& r : blk) total += r.index.size();
-  store.indices_.reserve(total);
-  store.values_.reserve(total);
-  for (auto& blk : blocks) {
-    for (auto& r : blk) {
-      store.offsets_[r.row] = store.indices_.size();
-      store.sizes_[r.row] = static_cast<uint32_t>(r.index.size());
-      store.indices_.insert(store.indices_.end(), r.index.begin(), r.index.end());
-      store.values_.insert(store.values_.end(), r.value.begin(), r.value.end());
+  auto pool = std::make_shared<TransportStore::Pool>();
+  if (!o.spill_dir.empty()) pool->file = std::make_unique<ScratchFile>(o.spill_dir, "transport rows");
+  // On disk, records pass through a buffer of kFlushBytes; in memory they go to the pool directly.
+  constexpr size_t kFlushBytes = size_t(4) << 20;
+  std::vector<char> pending;
+  auto pool_size = [&]() -> uint64_t { return pool->file ? pool->file->size() + pending.size() : pool->memory.size(); };
+  std::vector<std::pair<size_t, const BlockRows::Entry*>> order;                // (block, entry)
+  const size_t min_wave = 2 * size_t(tbb::this_task_arena::max_concurrency());  // blocks: every thread busy
+  size_t wave_size = min_wave;
+  for (size_t begin = 0; begin < num_blocks;) {
+    const size_t end = std::min(num_blocks, begin + wave_size);
+    tbb::parallel_for(begin, end, build_block);
+    order.clear();
+    size_t record_bytes = 0;
+    for (size_t b = begin; b < end; ++b) {
+      for (const BlockRows::Entry& e : blocks[b].entries) order.emplace_back(b, &e);
+      record_bytes += blocks[b].bytes.size();
     }
-    blk.clear();
-    blk.shrink_to_fit();
+    std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.second->row < b.second->row; });
+    store.wave_begin_.push_back(pool_size());
+    for (const auto& [b, e] : order) {
+      const size_t bytes = RecordBytes(e->size);
+      store.offsets_[e->row] = pool_size();
+      store.sizes_[e->row] = e->size;
+      store.num_coefficients_ += e->size;
+      std::vector<char>& out = pool->file ? pending : pool->memory;
+      out.insert(out.end(), blocks[b].bytes.data() + e->offset, blocks[b].bytes.data() + e->offset + bytes);
+      if (pool->file && pending.size() >= kFlushBytes) {
+        pool->file->Append(pending.data(), pending.size());
+        pending.clear();
+      }
+    }
+    for (size_t b = begin; b < end; ++b) blocks[b] = BlockRows();
+    // The next wave holds about o.wave_bytes of rows, at the rate of this one.
+    const double per_block = double(record_bytes) / double(end - begin);
+    wave_size = std::max(min_wave, static_cast<size_t>(double(o.wave_bytes) / std::max(1.0, per_block)));
+    begin = end;
   }
+  if (pool->file) pool->file->Append(pending.data(), pending.size());
+  progress.Finish();
+  std::vector<char>().swap(pending);
+  // Offsets of empty rows point at the start of the pool (their records are never read).
+  store.data_ = pool->file ? pool->file->Map() : pool->memory.data();
+  store.pool_ = std::move(pool);
   return store;
 }
 

@@ -36,6 +36,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,11 @@ struct TransportOptions {
   // Haar pixel route: sub-samples per visibility texel side (0: automatic,
   // TransportSupersampling).
   int supersampling = 0;
+  // Where the rows live: empty keeps them in memory; a folder keeps them in
+  // an unnamed file there (TransportStore, "Rows on disk").
+  std::string spill_dir;
+  // Bytes of rows built before they are written out as one wave (TransportStore).
+  size_t wave_bytes = size_t(256) << 20;
 };
 
 // Sub-samples per side of each visibility texel on the Haar pixel route: the
@@ -93,9 +99,26 @@ struct FootprintNormals {
 };
 FootprintNormals SampleFootprintNormals(const TriangleMesh& mesh, double footprint_scale);
 
-// Compact storage of all rows: one pool of (index, value) pairs.
+// Compact storage of all rows: one pool of records, row r's values (floats)
+// followed by its coefficient indices (uint16), at byte offsets_[r].
+//
+// Rows on disk: with TransportOptions::spill_dir the pool is an unnamed file
+// in that folder (O_TMPFILE, or a name unlinked at once: nothing is left
+// behind when the process ends or is killed), written as the rows are built
+// and mapped read-only. The solver's memory then no longer grows with the
+// rows (about 15 MiB a photo at the defaults): the kernel keeps the pages
+// it has room for in its cache and reads the others back. The file is laid
+// out for the two passes that read it: the rows are built per wave of
+// vertices (about TransportOptions::wave_bytes of rows) and each wave is
+// written in row order, where observation rows follow photo by photo (observations are
+// sorted by photo, then vertex), so the lighting step's rows of one photo and
+// the reflectance step's rows of consecutive observations are a few long
+// runs. Evict() tells the kernel a range has been used, so that the process's
+// resident set stays near one photo's rows instead of growing to the file.
+// Written by hand: the layout is the solver's, and mmap(2) is all it needs.
 class TransportStore {
  public:
+  TransportStore();
   // Dimension of a row: env_resolution² (haar) or (sh_order+1)² (sh).
   int dim() const { return dim_; }
   int num_lobes() const { return static_cast<int>(view_dependent_.size()); }
@@ -109,8 +132,19 @@ class TransportStore {
   Row Get(size_t observation, uint32_t vertex, int lobe) const;
   // Dot product of a row with a dense coefficient vector.
   float Dot(size_t observation, uint32_t vertex, int lobe, const float* dense) const;
-  size_t num_coefficients() const { return values_.size(); }
-  size_t bytes() const { return values_.size() * 6 + offsets_.size() * 12; }
+  size_t num_coefficients() const { return num_coefficients_; }
+  // Bytes of the rows (in memory or on disk) and of their index.
+  size_t bytes() const;
+  // True when the rows are in a file (TransportOptions::spill_dir).
+  bool on_disk() const;
+  // The rows of observations [begin, end) are not needed again soon: their
+  // pages leave the process's resident set (they stay in the kernel's cache
+  // while memory allows). The rows stay valid. No-op in memory.
+  void Evict(size_t observation_begin, size_t observation_end) const;
+  // Every page leaves the resident set (no-op in memory).
+  void EvictAll() const;
+
+  struct Pool;  // the record bytes: a vector or a mapped file
 
  private:
   friend TransportStore BuildTransport(const TriangleMesh&, const VisibilityData&, const ObservationSet&,
@@ -119,13 +153,15 @@ class TransportStore {
   std::vector<bool> view_dependent_;
   std::vector<int> slot_;                 // lobe -> slot among view-(in)dependent lobes
   int num_independent_ = 0, num_dependent_ = 0;
-  // Row r: pool [offsets_[r], offsets_[r] + sizes_[r]). Vertex rows first: v * num_independent_ + slot;
-  // then observation rows: vertex_rows_ + o * num_dependent_ + slot.
+  // Row r: record at byte offsets_[r] of the pool, sizes_[r] coefficients. Vertex rows first:
+  // v * num_independent_ + slot; then observation rows: vertex_rows_ + o * num_dependent_ + slot.
   size_t vertex_rows_ = 0;
   std::vector<uint64_t> offsets_;
   std::vector<uint32_t> sizes_;
-  std::vector<uint16_t> indices_;
-  std::vector<float> values_;
+  size_t num_coefficients_ = 0;
+  std::vector<uint64_t> wave_begin_;  // byte offset where each wave's records start (ascending)
+  std::shared_ptr<const Pool> pool_;
+  const char* data_ = nullptr;  // the pool's first byte
 };
 
 // Builds every row for the observations (vertex normals required).
