@@ -134,6 +134,42 @@ struct FootprintSample {
   Eigen::Vector3f mirror;  // view direction mirrored about the sample's normal
 };
 
+// Writes records into the pool in the order given: straight into memory, or through a buffer into the
+// scratch file (TransportStore, "Rows on disk").
+class PoolWriter {
+ public:
+  explicit PoolWriter(const std::string& spill_dir) : pool_(std::make_shared<TransportStore::Pool>()) {
+    if (!spill_dir.empty()) pool_->file = std::make_unique<ScratchFile>(spill_dir, "transport rows");
+  }
+  // Bytes written so far: the offset of the next record.
+  uint64_t size() const { return pool_->file ? pool_->file->size() + pending_.size() : pool_->memory.size(); }
+  void Write(const char* record, size_t bytes) {
+    std::vector<char>& out = pool_->file ? pending_ : pool_->memory;
+    out.insert(out.end(), record, record + bytes);
+    if (pool_->file && pending_.size() >= kFlushBytes) Flush();
+  }
+  // The finished pool and its first byte.
+  std::shared_ptr<TransportStore::Pool> Finish(const char** data) {
+    if (pool_->file) {
+      Flush();
+      std::vector<char>().swap(pending_);
+      *data = pool_->file->Map();
+    } else {
+      *data = pool_->memory.data();
+    }
+    return std::move(pool_);
+  }
+
+ private:
+  static constexpr size_t kFlushBytes = size_t(4) << 20;
+  void Flush() {
+    pool_->file->Append(pending_.data(), pending_.size());
+    pending_.clear();
+  }
+  std::shared_ptr<TransportStore::Pool> pool_;
+  std::vector<char> pending_;
+};
+
 // Rows of one block of vertices as records (TransportStore's layout), in the order they were built.
 struct BlockRows {
   struct Entry {
@@ -680,12 +716,7 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
 
   store.offsets_.assign(total_rows, 0);
   store.sizes_.assign(total_rows, 0);
-  auto pool = std::make_shared<TransportStore::Pool>();
-  if (!o.spill_dir.empty()) pool->file = std::make_unique<ScratchFile>(o.spill_dir, "transport rows");
-  // On disk, records pass through a buffer of kFlushBytes; in memory they go to the pool directly.
-  constexpr size_t kFlushBytes = size_t(4) << 20;
-  std::vector<char> pending;
-  auto pool_size = [&]() -> uint64_t { return pool->file ? pool->file->size() + pending.size() : pool->memory.size(); };
+  PoolWriter writer(o.spill_dir);
   std::vector<std::pair<size_t, const BlockRows::Entry*>> order;                // (block, entry)
   const size_t min_wave = 2 * size_t(tbb::this_task_arena::max_concurrency());  // blocks: every thread busy
   size_t wave_size = min_wave;
@@ -699,18 +730,12 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
       record_bytes += blocks[b].bytes.size();
     }
     std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.second->row < b.second->row; });
-    store.wave_begin_.push_back(pool_size());
+    store.wave_begin_.push_back(writer.size());
     for (const auto& [b, e] : order) {
-      const size_t bytes = RecordBytes(e->size);
-      store.offsets_[e->row] = pool_size();
+      store.offsets_[e->row] = writer.size();
       store.sizes_[e->row] = e->size;
       store.num_coefficients_ += e->size;
-      std::vector<char>& out = pool->file ? pending : pool->memory;
-      out.insert(out.end(), blocks[b].bytes.data() + e->offset, blocks[b].bytes.data() + e->offset + bytes);
-      if (pool->file && pending.size() >= kFlushBytes) {
-        pool->file->Append(pending.data(), pending.size());
-        pending.clear();
-      }
+      writer.Write(blocks[b].bytes.data() + e->offset, RecordBytes(e->size));
     }
     for (size_t b = begin; b < end; ++b) blocks[b] = BlockRows();
     // The next wave holds about o.wave_bytes of rows, at the rate of this one.
@@ -718,12 +743,9 @@ TransportStore BuildTransport(const TriangleMesh& mesh, const VisibilityData& vi
     wave_size = std::max(min_wave, static_cast<size_t>(double(o.wave_bytes) / std::max(1.0, per_block)));
     begin = end;
   }
-  if (pool->file) pool->file->Append(pending.data(), pending.size());
   progress.Finish();
-  std::vector<char>().swap(pending);
   // Offsets of empty rows point at the start of the pool (their records are never read).
-  store.data_ = pool->file ? pool->file->Map() : pool->memory.data();
-  store.pool_ = std::move(pool);
+  store.pool_ = writer.Finish(&store.data_);
   return store;
 }
 

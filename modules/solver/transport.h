@@ -115,7 +115,7 @@ FootprintNormals SampleFootprintNormals(const TriangleMesh& mesh, double footpri
 // the reflectance step's rows of consecutive observations are a few long
 // runs. Evict() tells the kernel a range has been used, so that the process's
 // resident set stays near one photo's rows instead of growing to the file.
-// Written by hand: the layout is the solver's, and mmap(2) is all it needs.
+// Written by hand: the layout is the solver's (the file: core/scratch_file.h).
 class TransportStore {
  public:
   TransportStore();
