@@ -1,9 +1,11 @@
 #include "evaluate/evaluate.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 
@@ -155,6 +157,33 @@ void NotAvailable(OrderedJson* m, const std::string& key, const std::string& rea
   (*m)["not_available"][key] = reason;
 }
 
+// Recovered against true albedo after the best per-channel scale (the
+// reflectance's scale is a gauge): PSNR with peak 1.
+struct AlbedoScore {
+  size_t vertices = 0;
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
+  double rmse = 0;
+  double psnr_db = 0;
+};
+
+AlbedoScore ScoreAlbedo(const std::vector<Eigen::Vector3d>& truth, const std::vector<Eigen::Vector3d>& estimate) {
+  AlbedoScore a;
+  a.vertices = truth.size();
+  if (truth.empty()) return a;
+  Eigen::Vector3d te = Eigen::Vector3d::Zero(), ee = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < truth.size(); ++k) {
+    te += truth[k].cwiseProduct(estimate[k]);
+    ee += estimate[k].cwiseProduct(estimate[k]);
+  }
+  for (int c = 0; c < 3; ++c) a.scale[c] = ee[c] > 0 ? te[c] / ee[c] : 1.0;
+  double se = 0;
+  for (size_t k = 0; k < truth.size(); ++k) se += (a.scale.cwiseProduct(estimate[k]) - truth[k]).squaredNorm();
+  const double mse = se / (3.0 * truth.size());
+  a.rmse = std::sqrt(mse);
+  a.psnr_db = mse > 0 ? std::min(kMaxPsnrDb, 10 * std::log10(1.0 / mse)) : kMaxPsnrDb;
+  return a;
+}
+
 }  // namespace
 
 const std::vector<std::string>& HeadlineMetricKeys() {
@@ -207,6 +236,153 @@ OrderedJson CollectStageSeconds(const std::map<std::string, std::string>& inputs
     if (!out.contains(s)) out[s] = v;
   return out;
 }
+
+namespace {
+
+// The albedo metrics (docs/METRICS.md "Albedo") into `metrics`, and the albedo figures from relight's
+// albedo cameras into `figures`.
+void EvaluateAlbedo(const EvaluateInputs& in, const std::string& gt, bool has_gt, const GroundTruthFrame& frame,
+                    const ObservationSet& observations, const std::vector<RenderRecord>& renders, bool have_caster,
+                    const std::string& output_dir, OrderedJson* metrics, OrderedJson* figures) {
+  OrderedJson& m = *metrics;
+  OrderedJson& fig = *figures;
+  fig["albedo"] = OrderedJson::array();
+  std::string reason;
+  const std::string truth_path = JoinPath(gt, "mesh.ply");
+  if (!has_gt || !IsFile(truth_path))
+    reason = has_gt ? "the ground truth has no mesh.ply" : "no ground truth";
+  else if (in.inverse_dir.empty())
+    reason = "the inverse stage did not run";
+  else if (!frame.available)
+    reason = "the model's frame could not be related to the ground truth: " + frame.reason;
+  TriangleMesh truth_mesh, model_mesh;
+  if (reason.empty()) {
+    truth_mesh = ReadMesh(truth_path);
+    model_mesh = ReadMesh(JoinPath(in.inverse_dir, "reflectance.ply"));
+    for (const char* p : {"albedo_r", "albedo_g", "albedo_b"}) {
+      if (!truth_mesh.FindProperty(p))
+        reason = "the ground-truth mesh has no albedo_r/g/b";
+      else if (!model_mesh.FindProperty(p))
+        reason = "reflectance.ply has no albedo_r/g/b";
+    }
+  }
+  if (reason.empty()) {
+    const std::string mesh_source = ReadMeshSource(in.mesh_dir);
+    const bool same =
+        mesh_source == "ground_truth" && truth_mesh.num_vertices() == model_mesh.num_vertices() && frame.IsIdentity();
+    // Observed vertices, and how many photos see each with confidence (α >= 0.5).
+    std::vector<char> seen(model_mesh.num_vertices(), 0);
+    std::vector<int> confident_photos(model_mesh.num_vertices(), 0);
+    for (const auto& ob : observations.records) {
+      if (ob.vertex >= seen.size() || ob.lower_bound()) continue;
+      seen[ob.vertex] = 1;
+      confident_photos[ob.vertex] += ob.confidence >= 0.5f;
+    }
+    if (observations.records.empty()) std::fill(seen.begin(), seen.end(), 1);
+    const TriangleMesh model_in_truth = frame.MeshToTruth(model_mesh);
+    // A reconstruction also covers what surrounds the object (the ground): each of its vertices is
+    // scored against the true surface it lies on, the object's (mesh.ply) or, when the truth gives
+    // their albedo, the surroundings' (occluders.ply), and left out when it is farther than 2% of
+    // the object's diagonal from both (off every true surface). Where the two touch, the object's.
+    TriangleMesh truth_surroundings;
+    const std::string surroundings_path = JoinPath(gt, "occluders.ply");
+    if (!same && IsFile(surroundings_path)) {
+      truth_surroundings = ReadMesh(surroundings_path);
+      for (const char* p : {"albedo_r", "albedo_g", "albedo_b"})
+        if (!truth_surroundings.FindProperty(p)) truth_surroundings = TriangleMesh();
+    }
+    std::unique_ptr<SurfaceIndex> index, surroundings_index;
+    if (!same) index = std::make_unique<SurfaceIndex>(truth_mesh);
+    if (!truth_surroundings.empty()) surroundings_index = std::make_unique<SurfaceIndex>(truth_surroundings);
+    const double tolerance = 0.02 * truth_mesh.BoundingBox().diagonal().norm();
+    auto albedo_of = [](const TriangleMesh& mesh) {
+      return std::array<const std::vector<float>*, 3>{mesh.FindProperty("albedo_r"), mesh.FindProperty("albedo_g"),
+                                                      mesh.FindProperty("albedo_b")};
+    };
+    const auto ta = albedo_of(truth_mesh), ga = albedo_of(truth_surroundings), ea = albedo_of(model_mesh);
+    std::vector<Eigen::Vector3d> t, e, confident_t, confident_e, around_t, around_e;
+    size_t off_surface = 0;
+    for (size_t v = 0; v < model_mesh.num_vertices(); ++v) {
+      if (!seen[v]) continue;
+      const Eigen::Vector3d ev((*ea[0])[v], (*ea[1])[v], (*ea[2])[v]);
+      Eigen::Vector3d tv;
+      bool on_object = true;
+      if (same) {
+        for (int c = 0; c < 3; ++c) tv[c] = (*ta[c])[v];
+      } else {
+        const Eigen::Vector3d p = model_in_truth.vertices[v].cast<double>();
+        ClosestPoint cp = index->Query(p);
+        if (surroundings_index) {
+          const ClosestPoint gp = surroundings_index->Query(p);
+          if (gp.distance < cp.distance - 1e-3 * tolerance) {  // where they touch, the object's
+            cp = gp;
+            on_object = false;
+          }
+        }
+        if (cp.distance > tolerance) {
+          ++off_surface;
+          continue;
+        }
+        const SurfaceIndex& from = on_object ? *index : *surroundings_index;
+        for (int c = 0; c < 3; ++c) tv[c] = from.Interpolate(cp, on_object ? *ta[c] : *ga[c]);
+      }
+      if (!on_object) {
+        around_t.push_back(tv);
+        around_e.push_back(ev);
+        continue;
+      }
+      t.push_back(tv);
+      e.push_back(ev);
+      if (confident_photos[v] >= 2) {
+        confident_t.push_back(tv);
+        confident_e.push_back(ev);
+      }
+    }
+    if (t.empty()) {
+      reason = "no observed vertex lies on the true object";
+    } else {
+      const AlbedoScore object = ScoreAlbedo(t, e), confident = ScoreAlbedo(confident_t, confident_e),
+                        around = ScoreAlbedo(around_t, around_e);
+      const Eigen::Vector3d& s = object.scale;
+      m["albedo_psnr_db"] = object.psnr_db;
+      m["albedo"] = {{"vertices", t.size()},
+                     {"correspondence", same ? "same mesh" : "closest point on the true surfaces"},
+                     {"scale", Vec(s)},
+                     {"rmse", object.rmse},
+                     {"peak", 1.0},
+                     {"confident_vertices", confident.vertices},
+                     {"confident_psnr_db", confident.vertices > 0 ? OrderedJson(confident.psnr_db) : OrderedJson()},
+                     {"surroundings_vertices", around.vertices},
+                     {"surroundings_psnr_db", around.vertices > 0 ? OrderedJson(around.psnr_db) : OrderedJson()},
+                     {"off_surface_vertices", off_surface}};
+      // Recovered (scaled) beside true albedo from relight's albedo cameras.
+      if (have_caster) {
+        std::vector<Eigen::Vector3f> est_rgb(model_mesh.num_vertices()), true_rgb(truth_mesh.num_vertices());
+        for (size_t v = 0; v < model_mesh.num_vertices(); ++v)
+          for (int c = 0; c < 3; ++c) est_rgb[v][c] = float(s[c] * (*ea[c])[v]);
+        for (size_t v = 0; v < truth_mesh.num_vertices(); ++v)
+          for (int c = 0; c < 3; ++c) true_rgb[v][c] = (*ta[c])[v];
+        const RayCaster model_caster({&model_mesh}), truth_caster({&truth_mesh});
+        const Eigen::Vector3f grey = Eigen::Vector3f::Constant(0.18f);
+        for (const auto& r : renders) {
+          if (r.kind != "albedo") continue;
+          const std::string base = "figures/albedo/" + r.name;
+          WritePng(JoinPath(output_dir, base + "_recovered.png"),
+                   ToneMapSrgb(RenderVertexColors(model_caster, 0, est_rgb, r.camera.camera, r.camera.pose, grey), 1));
+          WritePng(JoinPath(output_dir, base + "_truth.png"),
+                   ToneMapSrgb(RenderVertexColors(truth_caster, 0, true_rgb, r.camera.camera,
+                                                  frame.PoseToTruth(r.camera.pose), grey),
+                               1));
+          fig["albedo"].push_back(
+              {{"view", r.view}, {"recovered", base + "_recovered.png"}, {"truth", base + "_truth.png"}});
+        }
+      }
+    }
+  }
+  if (!reason.empty()) NotAvailable(&m, "albedo_psnr_db", reason);
+}
+
+}  // namespace
 
 EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, const std::string& output_dir) {
   o.Check();
@@ -623,103 +799,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
                         : "no ground truth");
   }
 
-  // --- Albedo.
-  fig["albedo"] = OrderedJson::array();
-  {
-    std::string reason;
-    const std::string truth_path = JoinPath(gt, "mesh.ply");
-    if (!has_gt || !IsFile(truth_path))
-      reason = has_gt ? "the ground truth has no mesh.ply" : "no ground truth";
-    else if (in.inverse_dir.empty())
-      reason = "the inverse stage did not run";
-    else if (!frame.available)
-      reason = "the model's frame could not be related to the ground truth: " + frame.reason;
-    TriangleMesh truth_mesh, model_mesh;
-    if (reason.empty()) {
-      truth_mesh = ReadMesh(truth_path);
-      model_mesh = ReadMesh(JoinPath(in.inverse_dir, "reflectance.ply"));
-      for (const char* p : {"albedo_r", "albedo_g", "albedo_b"}) {
-        if (!truth_mesh.FindProperty(p))
-          reason = "the ground-truth mesh has no albedo_r/g/b";
-        else if (!model_mesh.FindProperty(p))
-          reason = "reflectance.ply has no albedo_r/g/b";
-      }
-    }
-    if (reason.empty()) {
-      const std::string mesh_source = ReadMeshSource(in.mesh_dir);
-      const bool same =
-          mesh_source == "ground_truth" && truth_mesh.num_vertices() == model_mesh.num_vertices() && frame.IsIdentity();
-      std::vector<char> seen(model_mesh.num_vertices(), 0);
-      for (const auto& ob : observations.records)
-        if (ob.vertex < seen.size() && !ob.lower_bound()) seen[ob.vertex] = 1;
-      if (observations.records.empty()) std::fill(seen.begin(), seen.end(), 1);
-      const TriangleMesh model_in_truth = frame.MeshToTruth(model_mesh);
-      std::unique_ptr<SurfaceIndex> index;
-      if (!same) index = std::make_unique<SurfaceIndex>(truth_mesh);
-      const std::vector<float>* ta[3] = {truth_mesh.FindProperty("albedo_r"), truth_mesh.FindProperty("albedo_g"),
-                                         truth_mesh.FindProperty("albedo_b")};
-      const std::vector<float>* ea[3] = {model_mesh.FindProperty("albedo_r"), model_mesh.FindProperty("albedo_g"),
-                                         model_mesh.FindProperty("albedo_b")};
-      std::vector<Eigen::Vector3d> t, e;
-      for (size_t v = 0; v < model_mesh.num_vertices(); ++v) {
-        if (!seen[v]) continue;
-        Eigen::Vector3d tv;
-        if (same) {
-          for (int c = 0; c < 3; ++c) tv[c] = (*ta[c])[v];
-        } else {
-          const ClosestPoint cp = index->Query(model_in_truth.vertices[v].cast<double>());
-          for (int c = 0; c < 3; ++c) tv[c] = index->Interpolate(cp, *ta[c]);
-        }
-        t.push_back(tv);
-        e.push_back(Eigen::Vector3d((*ea[0])[v], (*ea[1])[v], (*ea[2])[v]));
-      }
-      if (t.empty()) {
-        reason = "no vertex is observed";
-      } else {
-        Eigen::Vector3d te = Eigen::Vector3d::Zero(), ee = Eigen::Vector3d::Zero();
-        for (size_t k = 0; k < t.size(); ++k) {
-          te += t[k].cwiseProduct(e[k]);
-          ee += e[k].cwiseProduct(e[k]);
-        }
-        Eigen::Vector3d s;
-        for (int c = 0; c < 3; ++c) s[c] = ee[c] > 0 ? te[c] / ee[c] : 1.0;
-        double se = 0;
-        for (size_t k = 0; k < t.size(); ++k) se += (s.cwiseProduct(e[k]) - t[k]).squaredNorm();
-        const double mse = se / (3.0 * t.size());
-        const double psnr = mse > 0 ? std::min(kMaxPsnrDb, 10 * std::log10(1.0 / mse)) : kMaxPsnrDb;
-        m["albedo_psnr_db"] = psnr;
-        m["albedo"] = {{"vertices", t.size()},
-                       {"correspondence", same ? "same mesh" : "closest point on the true mesh"},
-                       {"scale", Vec(s)},
-                       {"rmse", std::sqrt(mse)},
-                       {"peak", 1.0}};
-        // Recovered (scaled) beside true albedo from relight's albedo cameras.
-        if (caster) {
-          std::vector<Eigen::Vector3f> est_rgb(model_mesh.num_vertices()), true_rgb(truth_mesh.num_vertices());
-          for (size_t v = 0; v < model_mesh.num_vertices(); ++v)
-            for (int c = 0; c < 3; ++c) est_rgb[v][c] = float(s[c] * (*ea[c])[v]);
-          for (size_t v = 0; v < truth_mesh.num_vertices(); ++v)
-            for (int c = 0; c < 3; ++c) true_rgb[v][c] = (*ta[c])[v];
-          const RayCaster model_caster({&model_mesh}), truth_caster({&truth_mesh});
-          const Eigen::Vector3f grey = Eigen::Vector3f::Constant(0.18f);
-          for (const auto& r : renders) {
-            if (r.kind != "albedo") continue;
-            const std::string base = "figures/albedo/" + r.name;
-            WritePng(
-                JoinPath(output_dir, base + "_recovered.png"),
-                ToneMapSrgb(RenderVertexColors(model_caster, 0, est_rgb, r.camera.camera, r.camera.pose, grey), 1));
-            WritePng(JoinPath(output_dir, base + "_truth.png"),
-                     ToneMapSrgb(RenderVertexColors(truth_caster, 0, true_rgb, r.camera.camera,
-                                                    frame.PoseToTruth(r.camera.pose), grey),
-                                 1));
-            fig["albedo"].push_back(
-                {{"view", r.view}, {"recovered", base + "_recovered.png"}, {"truth", base + "_truth.png"}});
-          }
-        }
-      }
-    }
-    if (!reason.empty()) NotAvailable(&m, "albedo_psnr_db", reason);
-  }
+  EvaluateAlbedo(in, gt, has_gt, frame, observations, renders, caster != nullptr, output_dir, &m, &fig);
 
   // --- Cameras and mesh against the ground truth.
   if (frame.has_camera_errors) {

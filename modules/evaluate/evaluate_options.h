@@ -11,7 +11,7 @@
 namespace relight {
 
 inline const StageInfo kEvaluateStage{
-    "evaluate", "Metrics against ground truth (or leave-one-photo-out without it), error heat maps", 6};
+    "evaluate", "Metrics against ground truth (or leave-one-photo-out without it), error heat maps", 7};
 
 struct EvaluateOptions {
   // Image metrics.

@@ -462,7 +462,8 @@ TEST_F(EvaluateFramesTest, GroundTruthMetricsInTheTruthsFrame) {
   // Albedo: the per-channel gauge factors are undone exactly; closest points are the vertices themselves.
   EXPECT_GT(m["albedo_psnr_db"].get<double>(), 60.0);
   EXPECT_NEAR(m["albedo"]["scale"][0].get<double>(), 1.0 / 3.0, 1e-5);
-  EXPECT_EQ(m["albedo"]["correspondence"], "closest point on the true mesh");
+  EXPECT_EQ(m["albedo"]["correspondence"], "closest point on the true surfaces");
+  EXPECT_EQ(m["albedo"]["surroundings_vertices"].get<int>(), 0);  // the truth's ground carries no albedo here
   // Environment map: the recovered map is the truth at 32² carried through the rotation and back, so only
   // resampling separates them (the sun disk, 4 degrees, spreads over neighbouring texels; measured 0.169 and
   // 1.6 degrees); upper hemisphere because the truth has a ground.
@@ -489,6 +490,48 @@ TEST_F(EvaluateFramesTest, IgnoringTheFrameChangeIsVisible) {
   // Measured: 50 degrees and 0.9998 (against 1.6 degrees and 0.169 in the right frame).
   EXPECT_GT(m["light_dir_error_deg"].get<double>(), 20.0);
   EXPECT_GT(m["envmap_rel_error"].get<double>(), 0.4);
+}
+
+// A reconstruction covers the ground around the object and a stray blob: its ground vertices are
+// scored against the truth's ground (occluders.ply with albedo), the blob against nothing, and the
+// object's albedo alone makes the headline figure.
+TEST_F(EvaluateFramesTest, AlbedoOfTheObjectAloneAndOfItsSurroundingsApart) {
+  const std::string gt = dir_ / "ingest/ground_truth";
+  TriangleMesh ground = render_testing::Plane(2, 0, 7);  // no vertex right under the sphere's contact point
+  for (const char* p : {"albedo_r", "albedo_g", "albedo_b"}) ground.Property(p).assign(ground.num_vertices(), 0.3f);
+  for (size_t v = 0; v < ground.num_vertices(); ++v)
+    ground.Property("albedo_g")[v] = 0.2f + 0.1f * ground.vertices[v].x();
+  WriteMeshPly(gt + "/occluders.ply", ground);
+  // The recovered model: the object as before, plus the ground (0.01 below the truth's) and a blob
+  // 1.5 above the object, all in the model frame with the gauge factors (3, 0.5, 2).
+  TriangleMesh model = ReadMesh(dir_ / "inverse/reflectance.ply");
+  const size_t object_vertices = model.num_vertices();
+  const Sim3 model_from_truth = truth_from_model_.Inverse();
+  TriangleMesh around = ground, blob = render_testing::Icosphere(0.1, Eigen::Vector3d(0, 0, 2.0), 2);
+  for (auto& v : around.vertices) v.z() -= 0.01f;
+  for (const char* p : {"albedo_r", "albedo_g", "albedo_b"}) blob.Property(p).assign(blob.num_vertices(), 0.9f);
+  for (TriangleMesh* part : {&around, &blob}) {
+    for (auto& v : part->vertices) v = model_from_truth.Apply(v.cast<double>()).cast<float>();
+    for (auto& n : part->normals) n = (model_from_truth.rotation * n.cast<double>()).cast<float>();
+    for (auto& [name, values] : part->properties) {
+      const float f = name == "albedo_r" ? 3.0f : name == "albedo_g" ? 0.5f : 2.0f;
+      for (float& x : values) x *= f;
+    }
+    model.Append(*part);
+  }
+  WriteMeshPly(dir_ / "inverse/reflectance.ply", model);
+  EvaluateOptions o;
+  o.mesh_samples = 2000;
+  const OrderedJson m = RunEvaluate(o, Inputs(), dir_ / "out").metrics;
+  // Every vertex is observed (no observations.bin): the object's, the ground's and the blob's go apart.
+  EXPECT_EQ(m["albedo"]["vertices"].get<size_t>(), object_vertices);
+  EXPECT_EQ(m["albedo"]["surroundings_vertices"].get<size_t>(), around.num_vertices());
+  EXPECT_EQ(m["albedo"]["off_surface_vertices"].get<size_t>(), blob.num_vertices());
+  EXPECT_GT(m["albedo_psnr_db"].get<double>(), 60.0);
+  EXPECT_NEAR(m["albedo"]["scale"][1].get<double>(), 2.0, 1e-5);
+  // The ground's albedo is linear across it, so the closest points interpolate it exactly.
+  EXPECT_GT(m["albedo"]["surroundings_psnr_db"].get<double>(), 60.0);
+  EXPECT_TRUE(m["albedo"]["confident_psnr_db"].is_null());  // no observations: no confidence to count
 }
 
 TEST(Evaluate, StageSecondsFollowUpstreamKeys) {

@@ -91,7 +91,7 @@ const std::map<std::string, std::string>& Definitions() {
        "brightest lobe or the known light (DiLiGenT); median over photos."},
       {"albedo_psnr_db",
        "Per-vertex diffuse albedo against the true albedo (closest true surface point), per-channel scaled, peak 1; "
-       "observed vertices."},
+       "the object's observed vertices (a reconstructed ground is scored apart)."},
       {"loo_psnr_db",
        "Leave-one-photo-out: each scored photo rendered with reflectance fitted without it (only its environment "
        "map fitted to it), same PSNR as re-renderings; mean over scored photos."}};
@@ -574,8 +574,19 @@ class ReportBuilder {
     }
     if (metrics_.contains("albedo")) {
       const Json& a = metrics_["albedo"];
-      s << "<p class=\"def\">Albedo PSNR over " << a.value("vertices", 0) << " observed vertices ("
-        << html::Escape(a.value("correspondence", "")) << ").</p>\n";
+      s << "<p class=\"def\">Albedo PSNR over the object's " << a.value("vertices", 0) << " observed vertices ("
+        << html::Escape(a.value("correspondence", "")) << ")";
+      if (a.contains("confident_psnr_db") && a["confident_psnr_db"].is_number())
+        s << "; over the " << a.value("confident_vertices", 0)
+          << " that two or more photos see with confidence: " << html::Number(a["confident_psnr_db"].get<double>(), 2)
+          << " dB";
+      if (a.contains("surroundings_psnr_db") && a["surroundings_psnr_db"].is_number())
+        s << "; the surroundings (" << a.value("surroundings_vertices", 0)
+          << " vertices on the true ground and occluders): " << html::Number(a["surroundings_psnr_db"].get<double>(), 2)
+          << " dB";
+      if (a.value("off_surface_vertices", 0) > 0)
+        s << "; " << a.value("off_surface_vertices", 0) << " vertices lie on no true surface and are left out";
+      s << ".</p>\n";
     }
   }
 

@@ -12,7 +12,7 @@ namespace relight {
 inline const StageInfo kReportStage{
     "report",
     "HTML report: cameras and geometry, photos beside re-renderings, environment maps, materials, relit views, charts",
-    7};
+    8};
 
 struct ReportOptions {
   std::string title;               // page title; empty: "relight report: <workspace name>"
