@@ -399,6 +399,122 @@ AlternationResult Alternate(const SolveContext& ctx, const ModelSpec& spec, cons
   return FinishAlternation(&a);
 }
 
+// Model selection by held-out error (inverse.select_model): the candidates share the transport rows;
+// each runs a short alternation; the simplest model within inverse.selection_tolerance of the best
+// held-out error wins. Every candidate goes into summary->candidates; returns the chosen model.
+ModelSpec SelectModel(const SolveContext& ctx, ModelSpec spec, const std::vector<BrdfLobe>& basis, const Timer& total,
+                      InverseSummary* summary) {
+  const InverseOptions& o = ctx.o;
+  Timer selection;
+  auto evaluate = [&](const ModelSpec& candidate, const std::string& stage) {
+    ModelSpec s = candidate;
+    s.max_iterations = o.selection_iterations;
+    s.coarse_iterations = std::min(o.coarse_iterations, o.selection_iterations - 1);
+    Timer candidate_timer;
+    const AlternationResult r = Alternate(ctx, s);
+    ModelCandidate c;
+    c.seconds = candidate_timer.Seconds();
+    c.solve_seconds = total.Seconds();
+    c.stage = stage;
+    c.description = DescribeSpec(candidate, basis, o.env_resolution);
+    c.materials = candidate.materials;
+    for (size_t b = 0; b < basis.size(); ++b)
+      if (candidate.lobe_enabled[b]) c.basis.push_back(LobeSpec(basis[b]));
+    c.env_resolution = candidate.solve_resolution > 0 ? candidate.solve_resolution : o.env_resolution;
+    c.holdout_rmse = r.best_score;
+    c.train_rmse = r.iterations[r.best_iteration - 1].train_rmse;
+    summary->candidates.push_back(c);
+    RLOG_INFO("model selection ({}): {}: held-out RMSE {:.5g}", stage, c.description, c.holdout_rmse);
+    return r.best_score;
+  };
+  auto pick = [&](const std::vector<ModelSpec>& options_in_order, const std::string& stage) {
+    // Candidates ordered from simplest to richest; keep the simplest within tolerance of the best.
+    std::vector<double> score;
+    for (const auto& c : options_in_order) score.push_back(evaluate(c, stage));
+    const double best = *std::min_element(score.begin(), score.end());
+    for (size_t k = 0; k < score.size(); ++k)
+      if (score[k] <= (1.0 + o.selection_tolerance) * best) return k;
+    return score.size() - 1;
+  };
+  // 1. Number of materials.
+  std::vector<ModelSpec> by_materials;
+  for (int m : {1, 2, 3, 4, 6, 8}) {
+    if (m > o.materials) break;
+    ModelSpec c = spec;
+    c.materials = m;
+    by_materials.push_back(c);
+  }
+  if (by_materials.empty() || by_materials.back().materials != o.materials) {
+    by_materials.push_back(spec);
+  }
+  spec = by_materials[pick(by_materials, "materials")];
+  // 2. Basis lobes: drop each specular lobe that the held-out error does not miss.
+  double current = 1e300;
+  for (const auto& c : summary->candidates)
+    if (c.stage == "materials" && c.materials == spec.materials) current = c.holdout_rmse;
+  for (size_t b = 0; b < basis.size(); ++b) {
+    if (basis[b].model == BrdfModel::kLambertian || !spec.lobe_enabled[b]) continue;
+    ModelSpec c = spec;
+    c.lobe_enabled[b] = 0;
+    const double score = evaluate(c, "basis");
+    if (score <= (1.0 + o.selection_tolerance) * current) {
+      spec = c;
+      current = std::min(current, score);
+    }
+  }
+  // 3. Environment-map resolution (Haar): coarser maps when the photos do not support detail.
+  if (o.lighting_basis == "haar" && !o.fixed_lighting) {
+    std::vector<ModelSpec> by_resolution;
+    for (int res = std::max(8, o.env_resolution / 4); res < o.env_resolution; res *= 2) {
+      ModelSpec c = spec;
+      c.solve_resolution = res;
+      by_resolution.push_back(c);
+    }
+    by_resolution.push_back(spec);
+    spec = by_resolution[pick(by_resolution, "env_resolution")];
+  }
+  for (auto& c : summary->candidates) {
+    c.chosen = c.description == DescribeSpec(spec, basis, o.env_resolution) && c.stage != "chosen";
+  }
+  summary->selection_seconds = selection.Seconds();
+  summary->chosen_model = DescribeSpec(spec, basis, o.env_resolution);
+  RLOG_INFO("model selection chose {} ({:.1f} s)", summary->chosen_model, summary->selection_seconds);
+  return spec;
+}
+
+// How the final model meets the training lower bounds (clipped footprints): the share of bound
+// channels it stays more than 1% below (active bounds end at equality, up to the solver's
+// tolerance), and by how much on average, relative to the bound.
+void MeasureLowerBounds(const TransportStore& transport, const ObservationSet& obs, const std::vector<uint32_t>& train,
+                        const InverseResult& result, InverseSummary* summary) {
+  const std::vector<float> responses = ComputeLobeResponses(transport, obs, train, result.lighting);
+  size_t bounds = 0, missed = 0;
+  double shortfall = 0;
+  std::vector<float> rho(result.reflectance.num_lobes() * 3);
+  const int b_count = result.reflectance.num_lobes();
+  for (size_t k = 0; k < train.size(); ++k) {
+    const Observation& ob = obs.records[train[k]];
+    if (!ob.lower_bound()) continue;
+    result.reflectance.VertexLobeWeights(ob.vertex, rho.data());
+    for (int c = 0; c < 3; ++c) {
+      if (!ob.lower_bound(c)) continue;
+      ++bounds;
+      if (ob.rgb[c] <= 0) continue;
+      double pred = 0;
+      for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * responses[(k * b_count + b) * 3 + c];
+      if (pred >= 0.99 * ob.rgb[c]) continue;
+      ++missed;
+      shortfall += (ob.rgb[c] - pred) / ob.rgb[c];
+    }
+  }
+  summary->lower_bounds_missed = bounds > 0 ? double(missed) / bounds : 0.0;
+  summary->lower_bounds_mean_shortfall = missed > 0 ? shortfall / missed : 0.0;
+  RLOG_INFO(
+      "lower bounds: the model stays more than 1% below {:.1f}% of them (bound channels), by {:.1f}% on "
+      "average",
+      100 * summary->lower_bounds_missed, 100 * summary->lower_bounds_mean_shortfall);
+}
+
 }  // namespace
 
 bool UseFootprintRows(const InverseOptions& o, const InverseProblem& problem) {
@@ -406,6 +522,37 @@ bool UseFootprintRows(const InverseOptions& o, const InverseProblem& problem) {
   if (o.transport_footprint == "on") return true;
   // auto: a given mesh's normals are the surface's; a reconstruction's are estimates.
   return problem.mesh_source == "ground_truth" || problem.mesh_source == "file";
+}
+
+// The solve's transport rows (TransportOptions from the inverse options), with their counts and time in `summary`.
+TransportStore BuildSolveTransport(const InverseProblem& problem, const InverseOptions& o,
+                                   const std::vector<BrdfLobe>& basis, InverseSummary* summary) {
+  Timer step;
+  TransportOptions to;
+  to.basis = basis;
+  to.lighting_basis = o.lighting_basis;
+  to.env_resolution = o.env_resolution;
+  to.sh_order = o.sh_order;
+  to.keep_energy = o.transport_keep_energy;
+  summary->transport_footprint = UseFootprintRows(o, problem);
+  to.footprint_scale = summary->transport_footprint ? problem.footprint_scale : 0.0;
+  to.max_coefficients = o.transport_max_coefficients;
+  to.route = o.transport;
+  to.supersampling = o.transport_supersampling;
+  to.spill_dir = problem.scratch_dir;
+  TransportStore transport = BuildTransport(problem.mesh, problem.visibility, problem.observations, to);
+  summary->transport_seconds = step.Seconds();
+  summary->transport_coefficients = transport.num_coefficients();
+  const size_t rows =
+      problem.mesh.num_vertices() + problem.observations.records.size() * std::max(0, transport.num_lobes() - 1);
+  summary->transport_mean_coefficients_per_row = double(transport.num_coefficients()) / std::max<size_t>(1, rows);
+  RLOG_INFO("transport: {} observations x {} lobes, {:.1f} coefficients per row, {:.0f} MiB {}, {:.1f} s; {}",
+            problem.observations.records.size(), basis.size(), summary->transport_mean_coefficients_per_row,
+            transport.bytes() / 1048576.0, transport.on_disk() ? "in a scratch file" : "in memory",
+            summary->transport_seconds,
+            summary->transport_footprint ? "rows averaged over the observations' footprints"
+                                         : "rows at the vertex normals (inverse.transport_footprint)");
+  return transport;
 }
 
 InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& o, const KnownQuantities* known) {
@@ -422,31 +569,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   const std::vector<BrdfLobe> basis =
       known != nullptr && known->has_reflectance ? known->reflectance.basis : ParseLobeSpecs(o.basis);
 
-  // Transport rows.
-  Timer step;
-  TransportOptions to;
-  to.basis = basis;
-  to.lighting_basis = o.lighting_basis;
-  to.env_resolution = o.env_resolution;
-  to.sh_order = o.sh_order;
-  to.keep_energy = o.transport_keep_energy;
-  summary.transport_footprint = UseFootprintRows(o, problem);
-  to.footprint_scale = summary.transport_footprint ? problem.footprint_scale : 0.0;
-  to.max_coefficients = o.transport_max_coefficients;
-  to.route = o.transport;
-  to.supersampling = o.transport_supersampling;
-  to.spill_dir = problem.scratch_dir;
-  const TransportStore transport = BuildTransport(problem.mesh, problem.visibility, obs, to);
-  summary.transport_seconds = step.Seconds();
-  summary.transport_coefficients = transport.num_coefficients();
-  const size_t rows = nv * 1 + obs.records.size() * std::max(0, transport.num_lobes() - 1);
-  summary.transport_mean_coefficients_per_row = double(transport.num_coefficients()) / std::max<size_t>(1, rows);
-  RLOG_INFO("transport: {} observations x {} lobes, {:.1f} coefficients per row, {:.0f} MiB {}, {:.1f} s; {}",
-            obs.records.size(), basis.size(), summary.transport_mean_coefficients_per_row,
-            transport.bytes() / 1048576.0, transport.on_disk() ? "in a scratch file" : "in memory",
-            summary.transport_seconds,
-            summary.transport_footprint ? "rows averaged over the observations' footprints"
-                                        : "rows at the vertex normals (inverse.transport_footprint)");
+  const TransportStore transport = BuildSolveTransport(problem, o, basis, &summary);
 
   // Held-out and training observations; per-photo lighting subsets.
   SolveContext ctx{problem, o, known, transport, {}, {}, {}, {}, {}, {}};
@@ -493,85 +616,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
         "inverse.select_model needs held-out observations and a reflectance to solve from scratch (not "
         "fixed_reflectance, start_from_truth or a warm start); solving the configured model");
   }
-  if (can_select) {
-    // Model selection by held-out error: candidates share the transport rows;
-    // each runs a short alternation; the simplest model within
-    // inverse.selection_tolerance of the best held-out error wins.
-    Timer selection;
-    auto evaluate = [&](const ModelSpec& candidate, const std::string& stage) {
-      ModelSpec s = candidate;
-      s.max_iterations = o.selection_iterations;
-      s.coarse_iterations = std::min(o.coarse_iterations, o.selection_iterations - 1);
-      Timer candidate_timer;
-      const AlternationResult r = Alternate(ctx, s);
-      ModelCandidate c;
-      c.seconds = candidate_timer.Seconds();
-      c.solve_seconds = total.Seconds();
-      c.stage = stage;
-      c.description = DescribeSpec(candidate, basis, o.env_resolution);
-      c.materials = candidate.materials;
-      for (size_t b = 0; b < basis.size(); ++b)
-        if (candidate.lobe_enabled[b]) c.basis.push_back(LobeSpec(basis[b]));
-      c.env_resolution = candidate.solve_resolution > 0 ? candidate.solve_resolution : o.env_resolution;
-      c.holdout_rmse = r.best_score;
-      c.train_rmse = r.iterations[r.best_iteration - 1].train_rmse;
-      summary.candidates.push_back(c);
-      RLOG_INFO("model selection ({}): {}: held-out RMSE {:.5g}", stage, c.description, c.holdout_rmse);
-      return r.best_score;
-    };
-    auto pick = [&](const std::vector<ModelSpec>& options_in_order, const std::string& stage) {
-      // Candidates ordered from simplest to richest; keep the simplest within tolerance of the best.
-      std::vector<double> score;
-      for (const auto& c : options_in_order) score.push_back(evaluate(c, stage));
-      const double best = *std::min_element(score.begin(), score.end());
-      for (size_t k = 0; k < score.size(); ++k)
-        if (score[k] <= (1.0 + o.selection_tolerance) * best) return k;
-      return score.size() - 1;
-    };
-    // 1. Number of materials.
-    std::vector<ModelSpec> by_materials;
-    for (int m : {1, 2, 3, 4, 6, 8}) {
-      if (m > o.materials) break;
-      ModelSpec c = spec;
-      c.materials = m;
-      by_materials.push_back(c);
-    }
-    if (by_materials.empty() || by_materials.back().materials != o.materials) {
-      by_materials.push_back(spec);
-    }
-    spec = by_materials[pick(by_materials, "materials")];
-    // 2. Basis lobes: drop each specular lobe that the held-out error does not miss.
-    double current = 1e300;
-    for (const auto& c : summary.candidates)
-      if (c.stage == "materials" && c.materials == spec.materials) current = c.holdout_rmse;
-    for (size_t b = 0; b < basis.size(); ++b) {
-      if (basis[b].model == BrdfModel::kLambertian || !spec.lobe_enabled[b]) continue;
-      ModelSpec c = spec;
-      c.lobe_enabled[b] = 0;
-      const double score = evaluate(c, "basis");
-      if (score <= (1.0 + o.selection_tolerance) * current) {
-        spec = c;
-        current = std::min(current, score);
-      }
-    }
-    // 3. Environment-map resolution (Haar): coarser maps when the photos do not support detail.
-    if (o.lighting_basis == "haar" && !o.fixed_lighting) {
-      std::vector<ModelSpec> by_resolution;
-      for (int res = std::max(8, o.env_resolution / 4); res < o.env_resolution; res *= 2) {
-        ModelSpec c = spec;
-        c.solve_resolution = res;
-        by_resolution.push_back(c);
-      }
-      by_resolution.push_back(spec);
-      spec = by_resolution[pick(by_resolution, "env_resolution")];
-    }
-    for (auto& c : summary.candidates) {
-      c.chosen = c.description == DescribeSpec(spec, basis, o.env_resolution) && c.stage != "chosen";
-    }
-    summary.selection_seconds = selection.Seconds();
-    summary.chosen_model = DescribeSpec(spec, basis, o.env_resolution);
-    RLOG_INFO("model selection chose {} ({:.1f} s)", summary.chosen_model, summary.selection_seconds);
-  }
+  if (can_select) spec = SelectModel(ctx, spec, basis, total, &summary);
 
   // Starting points (inverse.init_gloss): each runs the whole alternation; the lowest held-out error wins.
   // A known reflectance is its own start.
@@ -638,37 +683,7 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   summary.best_iteration = final_result.best_iteration;
   summary.stop_reason = final_result.stop_reason;
   if (summary.chosen_model.empty()) summary.chosen_model = DescribeSpec(spec, basis, o.env_resolution);
-  if (summary.lower_bounds > 0) {
-    // How the final model meets the lower bounds (training ones): the share of bound channels it
-    // stays more than 1% below (active bounds end at equality, up to the solver's tolerance), and
-    // by how much on average, relative to the bound.
-    const std::vector<float> responses = ComputeLobeResponses(transport, obs, ctx.train, result.lighting);
-    size_t bounds = 0, missed = 0;
-    double shortfall = 0;
-    std::vector<float> rho(result.reflectance.num_lobes() * 3);
-    const int b_count = result.reflectance.num_lobes();
-    for (size_t k = 0; k < ctx.train.size(); ++k) {
-      const Observation& ob = obs.records[ctx.train[k]];
-      if (!ob.lower_bound()) continue;
-      result.reflectance.VertexLobeWeights(ob.vertex, rho.data());
-      for (int c = 0; c < 3; ++c) {
-        if (!ob.lower_bound(c)) continue;
-        ++bounds;
-        if (ob.rgb[c] <= 0) continue;
-        double pred = 0;
-        for (int b = 0; b < b_count; ++b) pred += rho[b * 3 + c] * responses[(k * b_count + b) * 3 + c];
-        if (pred >= 0.99 * ob.rgb[c]) continue;
-        ++missed;
-        shortfall += (ob.rgb[c] - pred) / ob.rgb[c];
-      }
-    }
-    summary.lower_bounds_missed = bounds > 0 ? double(missed) / bounds : 0.0;
-    summary.lower_bounds_mean_shortfall = missed > 0 ? shortfall / missed : 0.0;
-    RLOG_INFO(
-        "lower bounds: the model stays more than 1% below {:.1f}% of them (bound channels), by {:.1f}% on "
-        "average",
-        100 * summary.lower_bounds_missed, 100 * summary.lower_bounds_mean_shortfall);
-  }
+  if (summary.lower_bounds > 0) MeasureLowerBounds(transport, obs, ctx.train, result, &summary);
   const bool measure_resolution = o.map_resolution == "on" || (o.map_resolution == "auto" &&
                                                                (o.lighting_basis != "haar" || o.env_resolution <= 32));
   if (measure_resolution && !(o.fixed_lighting && known != nullptr && known->has_lighting)) {
