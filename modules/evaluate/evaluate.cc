@@ -265,6 +265,7 @@ void EvaluateAlbedo(const EvaluateInputs& in, const std::string& gt, bool has_gt
       else if (!model_mesh.FindProperty(p))
         reason = "reflectance.ply has no albedo_r/g/b";
     }
+    if (reason.empty() && !(truth_mesh.SurfaceArea() > 0)) reason = "'" + truth_path + "' has no surface area";
   }
   if (reason.empty()) {
     const std::string mesh_source = ReadMeshSource(in.mesh_dir);
@@ -290,6 +291,7 @@ void EvaluateAlbedo(const EvaluateInputs& in, const std::string& gt, bool has_gt
       truth_surroundings = ReadMesh(surroundings_path);
       for (const char* p : {"albedo_r", "albedo_g", "albedo_b"})
         if (!truth_surroundings.FindProperty(p)) truth_surroundings = TriangleMesh();
+      if (!(truth_surroundings.SurfaceArea() > 0)) truth_surroundings = TriangleMesh();  // nothing to lie on
     }
     std::unique_ptr<SurfaceIndex> index, surroundings_index;
     if (!same) index = std::make_unique<SurfaceIndex>(truth_mesh);

@@ -534,6 +534,19 @@ TEST_F(EvaluateFramesTest, AlbedoOfTheObjectAloneAndOfItsSurroundingsApart) {
   EXPECT_TRUE(m["albedo"]["confident_psnr_db"].is_null());  // no observations: no confidence to count
 }
 
+// A true ground whose faces have no area is nothing to lie on: it is ignored, not a crash.
+TEST_F(EvaluateFramesTest, DegenerateSurroundingsAreIgnored) {
+  TriangleMesh flat = render_testing::Plane(2, 0, 4);
+  for (auto& v : flat.vertices) v = Eigen::Vector3f(0.3f, 0.2f, 0.0f);
+  for (const char* p : {"albedo_r", "albedo_g", "albedo_b"}) flat.Property(p).assign(flat.num_vertices(), 0.5f);
+  WriteMeshPly(dir_ / "ingest/ground_truth/occluders.ply", flat);
+  EvaluateOptions o;
+  o.mesh_samples = 2000;
+  const OrderedJson m = RunEvaluate(o, Inputs(), dir_ / "out").metrics;
+  EXPECT_GT(m["albedo_psnr_db"].get<double>(), 60.0);
+  EXPECT_EQ(m["albedo"]["surroundings_vertices"].get<int>(), 0);
+}
+
 TEST(Evaluate, StageSecondsFollowUpstreamKeys) {
   testing::TempDir dir;
   const std::string a = dir / "ws/cache/relight/k1", b = dir / "ws/cache/inverse/k2", c = dir / "ws/cache/ingest/k3";
