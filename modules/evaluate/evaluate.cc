@@ -926,9 +926,13 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
             std::vector<float>& w = weighted.Property("w" + std::to_string(mm));
             for (size_t v = 0; v < weighted.num_vertices(); ++v) w[v] = fit.reflectance.weights[v * nm + mm];
           }
-          const Scene scene(
-              ModelSurfaces(weighted, fit.reflectance.Model(), full.occluders, relight_options.occluder_albedo),
-              "leave-one-out model");
+          // With inverse.interreflection the fold is rendered with the bounce and occluder albedo it was fitted with.
+          RecoveredModel fold = full;
+          if (inverse_options.interreflection == "mesh_and_occluders" && fit.reflectance.occluder_albedo.maxCoeff() > 0)
+            fold.occluder_albedo = fit.reflectance.occluder_albedo;
+          const Scene scene(ModelSurfaces(weighted, fit.reflectance.Model(), full.occluders,
+                                          fold.OccluderAlbedo(relight_options.occluder_albedo)),
+                            "leave-one-out model");
           const Image map = relight_options.zero_unseen_light
                                 ? ZeroTexels(fit.lighting_oct, UnseenOctTexels(scene, fit.lighting_oct.width))
                                 : fit.lighting_oct;
@@ -936,6 +940,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
           RenderedView view;
           if (use_transport) {
             TransportRenderer renderer(scene, problem.visibility, fit.lighting_oct.width);
+            EnableModelInterreflection(fold, &renderer, nullptr);
             TransportRenderOptions to;
             to.pixel_samples_per_axis = relight_options.pixel_samples_per_axis;
             to.background = false;
@@ -947,6 +952,7 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
             ro.brdf_samples = std::max(relight_options.brdf_samples, relight_options.scored_samples);
             ro.background = false;
             ro.seed = MixSeed(1, 0x100 + i);
+            EnableModelInterreflection(fold, nullptr, &ro);
             view = RenderView(scene, lighting, r.camera.camera, r.camera.pose, ro, i);
           }
           const PhotoReference ref =

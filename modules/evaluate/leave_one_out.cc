@@ -15,28 +15,14 @@ namespace fs = std::filesystem;
 
 InverseProblem LoadInverseProblem(const std::string& mesh_dir, const std::string& visibility_dir,
                                   const std::string& observe_dir) {
-  const std::string mesh = JoinPath(mesh_dir, "mesh.ply"), vis = JoinPath(visibility_dir, "visibility.bin"),
-                    obs = JoinPath(observe_dir, "observations.bin"), photos = JoinPath(observe_dir, "photos.json");
-  for (const std::string& path : {mesh, vis, obs, photos}) {
+  for (const std::string& path : {JoinPath(mesh_dir, "mesh.ply"), JoinPath(visibility_dir, "visibility.bin"),
+                                  JoinPath(observe_dir, "observations.bin"), JoinPath(observe_dir, "photos.json")}) {
     if (!fs::is_regular_file(path)) {
       RELIGHT_USER_ERROR() << "leave-one-photo-out needs '" << path << "', which is missing; rerun the stage that "
                            << "writes it or set evaluate.leave_one_out: never";
     }
   }
-  InverseProblem p;
-  p.mesh = ReadMesh(mesh);
-  if (p.mesh.normals.size() != p.mesh.num_vertices()) p.mesh.ComputeVertexNormals();
-  p.visibility = ReadVisibility(vis);
-  p.observations = ReadObservations(obs);
-  p.photos = ReadObservedPhotos(photos);
-  p.footprint_scale = ReadObservedFootprintScale(photos);
-  p.mesh_source = ReadMeshSource(mesh_dir);
-  if (p.visibility.per_vertex.size() != p.mesh.num_vertices() || p.observations.num_vertices != p.mesh.num_vertices()) {
-    RELIGHT_USER_ERROR() << "'" << mesh << "' (" << p.mesh.num_vertices() << " vertices), '" << vis << "' ("
-                         << p.visibility.per_vertex.size() << ") and '" << obs << "' (" << p.observations.num_vertices
-                         << ") disagree; rerun from the mesh stage";
-  }
-  return p;
+  return ReadInverseProblem(mesh_dir, visibility_dir, observe_dir);
 }
 
 ObservationSet RestrictObservations(const ObservationSet& all, const std::vector<uint32_t>& photos) {

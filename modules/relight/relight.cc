@@ -185,17 +185,59 @@ RecoveredModel LoadRecoveredModel(const std::string& inverse_dir, const std::str
     if (model.occluders.normals.size() != model.occluders.num_vertices()) model.occluders.ComputeVertexNormals();
   }
   MeshBoundingSphere(model.mesh, &model.center, &model.radius);
+  if (const std::string path = JoinPath(inverse_dir, "lighting.json"); fs::is_regular_file(path)) {
+    const Json lighting = ReadJsonFile(path);
+    if (lighting.contains("env_resolution")) model.env_resolution = lighting.at("env_resolution").get<int>();
+    if (lighting.contains("interreflection")) {
+      const Json& bounce = lighting.at("interreflection");
+      if (!bounce.is_object() || !bounce.contains("rays_per_side") || !bounce.at("rays_per_side").is_number_integer() ||
+          bounce.at("rays_per_side").get<int>() < 1) {
+        RELIGHT_USER_ERROR() << "'" << path << "': \"interreflection\" must be {\"rays_per_side\": k} with k >= 1; "
+                             << "rerun the inverse stage";
+      }
+      model.bounce_rays_per_side = bounce.at("rays_per_side").get<int>();
+      if (bounce.contains("occluder_albedo")) {
+        const Json& a = bounce.at("occluder_albedo");
+        if (!a.is_array() || a.size() != 3 || !a[0].is_number() || !a[1].is_number() || !a[2].is_number() ||
+            a[0].get<double>() < 0 || a[1].get<double>() < 0 || a[2].get<double>() < 0) {
+          RELIGHT_USER_ERROR() << "'" << path << "': \"interreflection\".\"occluder_albedo\" must be three "
+                               << "non-negative numbers; rerun the inverse stage";
+        }
+        model.occluder_albedo = {a[0].get<double>(), a[1].get<double>(), a[2].get<double>()};
+      }
+    }
+  }
   return model;
 }
 
+void EnableModelInterreflection(const RecoveredModel& model, TransportRenderer* transport, RenderOptions* monte_carlo) {
+  if (model.bounce_rays_per_side <= 0) return;
+  if (transport != nullptr) {
+    BounceOptions bounce;
+    bounce.rays_per_side = model.bounce_rays_per_side;
+    const bool occluders_bounce = model.occluder_albedo.minCoeff() >= 0;
+    const InterreflectionSummary is = transport->EnableInterreflection(bounce, occluders_bounce);
+    RLOG_INFO(
+        "interreflection on (the inverse stage solved with it): one bounce between the object's vertices{}, "
+        "{}² rays per vertex, {} vertex pairs in {:.1f} s",
+        occluders_bounce ? " and from the occluders" : "", bounce.rays_per_side, is.num_samples, is.seconds);
+  }
+  if (monte_carlo != nullptr) {
+    if (monte_carlo->brdf_samples < 1) {
+      RELIGHT_USER_ERROR() << "the inverse stage solved with interreflection, which the Monte Carlo renderer "
+                           << "follows along BRDF samples: render with brdf_samples >= 1";
+    }
+    monte_carlo->interreflection = true;
+    monte_carlo->bounce_from_occluders = model.occluder_albedo.minCoeff() >= 0;
+  }
+}
+
 std::vector<Scene::Surface> ModelSurfaces(const TriangleMesh& object_mesh, const ReflectanceModel& reflectance,
-                                          const TriangleMesh& occluders, double occluder_albedo) {
+                                          const TriangleMesh& occluders, const Eigen::Vector3d& occluder_albedo) {
   std::vector<Scene::Surface> surfaces;
   surfaces.push_back({object_mesh, reflectance, SurfaceRole::kObject});
-  if (!occluders.empty()) {
-    surfaces.push_back(
-        {occluders, LambertianModel(Eigen::Vector3d::Constant(occluder_albedo), "occluder"), SurfaceRole::kOccluder});
-  }
+  if (!occluders.empty())
+    surfaces.push_back({occluders, LambertianModel(occluder_albedo, "occluder"), SurfaceRole::kOccluder});
   return surfaces;
 }
 
@@ -405,8 +447,9 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   // The new lights, read before any rendering: a bad entry fails the stage at once, naming it.
   const std::vector<EnvMap> file_maps = LoadRelightEnvmaps(o.envmaps);
   const RecoveredModel model = LoadRecoveredModel(in.inverse_dir, in.mesh_dir);
-  const Scene scene(ModelSurfaces(model.mesh, model.reflectance, model.occluders, o.occluder_albedo),
-                    JoinPath(in.inverse_dir, "reflectance.ply"));
+  const Scene scene(
+      ModelSurfaces(model.mesh, model.reflectance, model.occluders, model.OccluderAlbedo(o.occluder_albedo)),
+      JoinPath(in.inverse_dir, "reflectance.ply"));
   RLOG_INFO("model: {} vertices, {} materials over {} basis BRDFs, {} occluder vertices; bounding sphere r = {:.4g}",
             model.mesh.num_vertices(), model.reflectance.materials.size(), model.reflectance.basis.size(),
             model.occluders.num_vertices(), model.radius);
@@ -623,11 +666,6 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   const bool have_visibility = !visibility_path.empty() && fs::is_regular_file(visibility_path);
   VisibilityData visibility;
   if (have_visibility) visibility = ReadVisibility(visibility_path);
-  int env_resolution = 32;
-  if (const std::string path = JoinPath(in.inverse_dir, "lighting.json"); fs::is_regular_file(path)) {
-    const Json lighting = ReadJsonFile(path);
-    if (lighting.contains("env_resolution")) env_resolution = lighting.at("env_resolution").get<int>();
-  }
   // The interactive viewer (relight/viewer_export.h), under each photo's recovered map and each new map.
   if (shard.active()) {
     // a shard renders only
@@ -636,7 +674,7 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
     for (const RecoveredPhoto& photo : photos) maps.emplace_back(Stem(photo.name), photo.envmap);
     for (size_t m = 0; m < file_lights.size(); ++m) maps.emplace_back(file_lights[m].first, file_maps[m]);
     ViewerOptions vo;
-    vo.env_resolution = env_resolution;
+    vo.env_resolution = model.env_resolution;
     vo.tonemap_percentile = o.tonemap_percentile;
     const ViewerExport viewer = WriteViewerAssets(JoinPath(output_dir, "export/viewer"), model, visibility, maps, vo);
     summary.viewer = "export/viewer/viewer.html";
@@ -679,9 +717,14 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
                            << (visibility_path.empty() ? "" : " ('" + visibility_path + "' is missing)")
                            << "; run the visibility stage (or set relight.renderer: monte_carlo)";
     }
-    transport = std::make_unique<TransportRenderer>(scene, visibility, env_resolution);
+    transport = std::make_unique<TransportRenderer>(scene, visibility, model.env_resolution);
     RLOG_INFO("transport renderer: {}x{} visibility maps, light filtered to {}x{} octahedral texels",
-              visibility.resolution, visibility.resolution, env_resolution, env_resolution);
+              visibility.resolution, visibility.resolution, model.env_resolution, model.env_resolution);
+  }
+  if (tiles > 0) {
+    EnableModelInterreflection(model, transport.get(), transport ? nullptr : &base);
+    if (!transport && base.interreflection)
+      RLOG_INFO("interreflection on (the inverse stage solved with it): the Monte Carlo renderer adds one bounce");
   }
   double turntable_exposure = -1;
   {

@@ -35,6 +35,7 @@
 #include "geometry/mesh.h"
 #include "relight/gltf_export.h"
 #include "relight/relight_options.h"
+#include "relight/transport_render.h"
 #include "relight/views.h"
 #include "render/scene.h"
 #include "sphere/envmap.h"
@@ -48,15 +49,34 @@ struct RecoveredModel {
   TriangleMesh occluders;        // <mesh>/occluders.ply without properties; empty when absent
   Eigen::Vector3d center = Eigen::Vector3d::Zero();  // bounding sphere of the object
   double radius = 1;
+  // <inverse>/lighting.json: side of the octahedral maps the light was solved on (the transport renderer
+  // filters light to it), and the one bounce the model was fitted with (inverse.interreflection; 0: none).
+  int env_resolution = 32;
+  int bounce_rays_per_side = 0;
+  // The occluders' albedo the inverse stage recovered with the bounce (lighting.json); negative: not recovered.
+  Eigen::Vector3d occluder_albedo = Eigen::Vector3d::Constant(-1);
+
+  // The occluders' albedo to render with: the recovered one, else `configured` (relight.occluder_albedo) grey.
+  Eigen::Vector3d OccluderAlbedo(double configured) const {
+    return occluder_albedo.minCoeff() >= 0 ? occluder_albedo : Eigen::Vector3d::Constant(configured);
+  }
 };
 
 // Reads the model; throws UserError naming the missing or broken file and what to rerun.
 RecoveredModel LoadRecoveredModel(const std::string& inverse_dir, const std::string& mesh_dir);
 
+// Renders `model` with the bounce it was solved with (RecoveredModel::bounce_rays_per_side; nothing when 0):
+// enabled in `transport` and/or `monte_carlo` (the path tracer's one bounce), either may be null.
+void EnableModelInterreflection(const RecoveredModel& model, TransportRenderer* transport, RenderOptions* monte_carlo);
+
 // Renderer surfaces: the object (role kObject) with `reflectance` (weights w0… of `object_mesh`), then the
-// occluders (kOccluder) as grey Lambertian of `occluder_albedo`.
+// occluders (kOccluder) as Lambertian of `occluder_albedo` (RGB).
 std::vector<Scene::Surface> ModelSurfaces(const TriangleMesh& object_mesh, const ReflectanceModel& reflectance,
-                                          const TriangleMesh& occluders, double occluder_albedo);
+                                          const TriangleMesh& occluders, const Eigen::Vector3d& occluder_albedo);
+inline std::vector<Scene::Surface> ModelSurfaces(const TriangleMesh& object_mesh, const ReflectanceModel& reflectance,
+                                                 const TriangleMesh& occluders, double occluder_albedo) {
+  return ModelSurfaces(object_mesh, reflectance, occluders, Eigen::Vector3d::Constant(occluder_albedo));
+}
 
 // Texels of an n x n octahedral environment map from which the scene's object surfaces receive no light:
 // from all but a handful of the sampled object vertices (at most `max_vertices`, evenly strided; fewer than

@@ -48,7 +48,7 @@ struct RelightOptions {
   int brdf_samples = 8;            // BRDF importance samples per shading point
   int scored_samples = 32;         // at least this many environment and BRDF samples in the renders evaluate scores
   bool background = true;          // new views show the environment behind the object
-  double occluder_albedo = 0.35;   // grey Lambertian albedo of <mesh>/occluders.ply (its reflectance is not recovered)
+  double occluder_albedo = 0.35;   // grey Lambertian albedo of <mesh>/occluders.ply (unless inverse recovered one)
   double tonemap_percentile = 99;  // PNG exposure maps this percentile of object luminance to white
   int seed = 1;                    // Monte Carlo streams; images are a deterministic function of it
 
@@ -120,8 +120,9 @@ struct RelightOptions {
         .Range(1, 1024);
     t->Add("background", &background, "New views show the environment map behind the object (else black).");
     t->Add("occluder_albedo", &occluder_albedo,
-           "Grey Lambertian albedo given to <mesh>/occluders.ply (ground, blockers): their reflectance is not "
-           "recovered; they matter for the shadows they cast.")
+           "Grey Lambertian albedo given to <mesh>/occluders.ply (ground, blockers), whose reflectance is not "
+           "recovered unless the inverse stage solved with inverse.interreflection: mesh_and_occluders (then its "
+           "recovered albedo is used). Otherwise they matter for the shadows they cast.")
         .Range(0, 1);
     t->Add("tonemap_percentile", &tonemap_percentile,
            "PNG exposure: this percentile of the object pixels' luminance maps to white, then the sRGB curve.")

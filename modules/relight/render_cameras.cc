@@ -122,8 +122,9 @@ RenderCamerasSummary RenderCameras(const RenderCamerasRequest& r) {
     RELIGHT_USER_ERROR() << "camera model '" << r.cameras_dir << "' holds no images (posed cameras) to render";
   }
   const RecoveredModel model = LoadRecoveredModel(r.inverse_dir, r.mesh_dir);
-  const Scene scene(ModelSurfaces(model.mesh, model.reflectance, model.occluders, r.occluder_albedo),
-                    JoinPath(r.inverse_dir, "reflectance.ply"));
+  const Scene scene(
+      ModelSurfaces(model.mesh, model.reflectance, model.occluders, model.OccluderAlbedo(r.occluder_albedo)),
+      JoinPath(r.inverse_dir, "reflectance.ply"));
   VisibilityData visibility;
   std::unique_ptr<TransportRenderer> transport;
   if (r.renderer == "transport") {
@@ -133,12 +134,7 @@ RenderCamerasSummary RenderCameras(const RenderCamerasRequest& r) {
                            << "' is missing): run the visibility stage, or render with monte_carlo";
     }
     visibility = ReadVisibility(path);
-    int env_resolution = 32;
-    if (const std::string lighting_path = JoinPath(r.inverse_dir, "lighting.json"); fs::is_regular_file(lighting_path)) {
-      const Json j = ReadJsonFile(lighting_path);
-      if (j.contains("env_resolution")) env_resolution = j.at("env_resolution").get<int>();
-    }
-    transport = std::make_unique<TransportRenderer>(scene, visibility, env_resolution);
+    transport = std::make_unique<TransportRenderer>(scene, visibility, model.env_resolution);
   }
   EnsureDir(r.output_dir);
   std::vector<RenderCamera> views;
@@ -168,6 +164,7 @@ RenderCamerasSummary RenderCameras(const RenderCamerasRequest& r) {
   mc.light_samples = r.monte_carlo_samples;
   mc.brdf_samples = r.monte_carlo_samples;
   mc.background = r.background;
+  EnableModelInterreflection(model, transport.get(), &mc);
   int64_t units = 0;
   for (const RenderCamera& v : views)
     units += transport ? TransportRenderer::NumBands(v.camera, to) : NumTiles(v.camera, mc);

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 #include "core/error.h"
 #include "core/log.h"
@@ -204,8 +206,8 @@ constexpr size_t kRowMaxCoefficients = 256;
 }  // namespace
 
 // What is kept for one light: the environment filtered to the octahedral map (texels and their Haar
-// coefficients), per vertex the Lambertian part of the radiance, and the shadow-ray results of the delta
-// lights.
+// coefficients), per vertex the Lambertian part of the radiance, the shadow-ray results of the delta
+// lights and, with the bounce, what each object vertex receives.
 struct TransportRenderer::LightState {
   const Lighting* lighting = nullptr;
   bool has_env = false;
@@ -216,6 +218,7 @@ struct TransportRenderer::LightState {
   std::vector<std::vector<uint8_t>> delta_unblocked;  // [surface][vertex * num_delta + k]: 0 unknown, 1 lit, 2 blocked
   std::vector<DirectionalLight> suns;                 // split out of the environment (render/sun_light.h)
   size_t num_delta = 0;
+  std::vector<Eigen::Vector3f> bounce_in;  // object vertex: Σ_s w_s D_{h_s} (header comment); empty: no bounce
 };
 
 TransportRenderer::TransportRenderer(const Scene& scene, const VisibilityData& object_visibility, int env_resolution)
@@ -349,7 +352,29 @@ TransportRenderer::LightState& TransportRenderer::Prepare(const Lighting& lighti
   }
   LightState& ref = *state;
   lights_[&lighting] = std::move(state);
+  if (interreflection_) PrepareBounce(&ref);
   return ref;
+}
+
+InterreflectionSummary TransportRenderer::EnableInterreflection(const BounceOptions& options, bool occluders_bounce) {
+  Timer timer;
+  // The occluders (surface 1, the caster's mesh 1) reflect their recovered (or given) albedo onto the object.
+  const bool occluders = occluders_bounce && scene_.num_surfaces() > 1;
+  bounce_ =
+      ComputeBounceSamples(scene_.surface(0).mesh, scene_.caster(), options, occluders ? &occluder_bounce_ : nullptr);
+  occluder_bounce_vertices_.clear();
+  if (occluders) {
+    std::vector<char> hit(scene_.surface(1).mesh.num_vertices(), 0);
+    for (uint32_t h : occluder_bounce_.hit_vertex) hit[h] = 1;
+    for (size_t h = 0; h < hit.size(); ++h)
+      if (hit[h]) occluder_bounce_vertices_.push_back(static_cast<uint32_t>(h));
+  }
+  interreflection_ = true;
+  lights_.clear();  // their radiance lacks the bounce
+  InterreflectionSummary summary;
+  summary.num_samples = bounce_.hit_vertex.size() + occluder_bounce_.hit_vertex.size();
+  summary.seconds = timer.Seconds();
+  return summary;
 }
 
 void TransportRenderer::EnsureOccluderVisibility(int surface, const std::vector<uint32_t>& vertices) {
@@ -409,9 +434,102 @@ void TransportRenderer::EnsureOccluderVisibility(int surface, const std::vector<
   }
 }
 
+const Eigen::Vector3f& TransportRenderer::DiffuseEnv(LightState* light, int surface, uint32_t vertex,
+                                                     const Eigen::Vector3f& lambert_rgb) {
+  if (!light->diffuse_done[surface][vertex]) {
+    // The vertex's Lambertian row against the light's Haar coefficients.
+    const SurfaceState& st = *surfaces_[surface];
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+    const uint32_t first = st.row_first[vertex];
+    for (uint32_t k = first; k < first + st.row_size[vertex]; ++k)
+      for (int c = 0; c < 3; ++c) sum[c] += st.row_value[k] * light->haar[c][st.row_index[k]];
+    light->diffuse[surface][vertex] = lambert_rgb.cwiseProduct(sum) * static_cast<float>(1.0 / M_PI);
+    light->diffuse_done[surface][vertex] = 1;
+  }
+  return light->diffuse[surface][vertex];
+}
+
+template <typename Fn>
+void TransportRenderer::ForEachUnblockedDelta(LightState* light, int surface, uint32_t vertex,
+                                              const Eigen::Vector3f& normal_world, Fn&& fn) {
+  if (light->num_delta == 0) return;
+  const Lighting& lighting = *light->lighting;
+  const Eigen::Vector3f x = scene_.surface(surface).mesh.vertices[vertex];
+  auto visit = [&](size_t k, const Eigen::Vector3f& to_light, float distance, const Eigen::Vector3f& irradiance) {
+    const float cos_i = normal_world.dot(to_light);
+    if (cos_i <= 0) return;
+    uint8_t& state = light->delta_unblocked[surface][size_t(vertex) * light->num_delta + k];
+    if (state == 0) {
+      Ray ray;
+      ray.origin = x + ray_offset_ * normal_world;
+      ray.dir = to_light;
+      ray.t_far = distance;
+      state = scene_.caster().Occluded(ray) ? 2 : 1;
+    }
+    if (state == 1) fn(to_light, cos_i, irradiance);
+  };
+  size_t k = 0;
+  for (const std::vector<DirectionalLight>* list : {&lighting.directional, &std::as_const(light->suns)})
+    for (const DirectionalLight& d : *list)
+      visit(k++, d.dir_world.normalized().cast<float>(), std::numeric_limits<float>::infinity(),
+            d.irradiance_rgb.cast<float>());
+  for (const PointLight& p : lighting.points) {
+    const Eigen::Vector3f to = p.position_world.cast<float>() - x;
+    const float r = to.norm();
+    if (r > 0) visit(k, to / r, r * (1 - 1e-4f), p.intensity_rgb.cast<float>() / (r * r));
+    ++k;
+  }
+}
+
+std::vector<float> TransportRenderer::DiffuseExit(LightState* light, int surface,
+                                                  const std::vector<uint32_t>& vertices) {
+  const SurfaceState& st = *surfaces_[surface];
+  // The Lambertian rows of the listed vertices (the object's maps decoded, occluders' baked), kept for later views.
+  if (light->has_env) EnsureOccluderVisibility(surface, vertices);
+  std::vector<float> exit_rgb(scene_.surface(surface).mesh.num_vertices() * 3, 0.0f);
+  tbb::parallel_for(size_t(0), vertices.size(), [&](size_t q) {
+    const uint32_t vertex = vertices[q];
+    const SurfacePoint point = scene_.PointAtVertex(surface, static_cast<int>(vertex));
+    Eigen::Vector3f lambert_rgb = Eigen::Vector3f::Zero();  // the lobes Shade counts as Lambertian
+    for (int b = 0; b < point.num_lobes; ++b) {
+      const Eigen::Vector3f k = point.lobe_rgb[b].cast<float>();
+      if (k.maxCoeff() > 0 && st.lobes[b].lambertian) lambert_rgb += k;
+    }
+    if (lambert_rgb.maxCoeff() <= 0) return;
+    Eigen::Vector3f exit = Eigen::Vector3f::Zero();
+    if (light->has_env) exit += DiffuseEnv(light, surface, vertex, lambert_rgb);
+    const Eigen::Vector3f f_rgb = lambert_rgb * static_cast<float>(1.0 / M_PI);
+    ForEachUnblockedDelta(light, surface, vertex, point.normal_shading_world.cast<float>(),
+                          [&](const Eigen::Vector3f&, float cos_i, const Eigen::Vector3f& irradiance) {
+                            exit += cos_i * f_rgb.cwiseProduct(irradiance);
+                          });
+    for (int c = 0; c < 3; ++c) exit_rgb[size_t(vertex) * 3 + c] = exit[c];
+  });
+  return exit_rgb;
+}
+
+void TransportRenderer::PrepareBounce(LightState* light) {
+  Timer timer;
+  const size_t nv = scene_.surface(0).mesh.num_vertices();
+  // D_h of every object vertex (any can be hit), and of the occluder vertices the object sees.
+  std::vector<uint32_t> all(nv);
+  for (size_t v = 0; v < nv; ++v) all[v] = static_cast<uint32_t>(v);
+  const std::vector<float> exit_rgb = DiffuseExit(light, 0, all);
+  std::vector<float> occluder_exit_rgb;
+  if (!occluder_bounce_vertices_.empty()) occluder_exit_rgb = DiffuseExit(light, 1, occluder_bounce_vertices_);
+  light->bounce_in.assign(nv, Eigen::Vector3f::Zero());
+  tbb::parallel_for(size_t(0), nv, [&](size_t v) {
+    for (int c = 0; c < 3; ++c) {
+      light->bounce_in[v][c] = bounce_.Gather(static_cast<uint32_t>(v), exit_rgb.data(), 3, c);
+      if (!occluder_exit_rgb.empty())
+        light->bounce_in[v][c] += occluder_bounce_.Gather(static_cast<uint32_t>(v), occluder_exit_rgb.data(), 3, c);
+    }
+  });
+  RLOG_DEBUG("transport renderer: the bounce under a light over {} vertices in {:.2f} s", nv, timer.Seconds());
+}
+
 Eigen::Vector3f TransportRenderer::Shade(const LightState& light, int surface, uint32_t vertex,
                                          const Eigen::Vector3f& dir_out_world) {
-  const Scene::Surface& surf = scene_.surface(surface);
   const SurfaceState& st = *surfaces_[surface];
   const SurfacePoint point = scene_.PointAtVertex(surface, static_cast<int>(vertex));
   const Eigen::Vector3f normal = point.normal_shading_world.cast<float>();
@@ -440,20 +558,12 @@ Eigen::Vector3f TransportRenderer::Shade(const LightState& light, int surface, u
   if (light.has_env) {
     const TexelTable& table = surface == 0 ? *object_texels_ : *occluder_texels_;
     const uint8_t* vis = st.Map(vertex);
-    const bool need_diffuse = !light.diffuse_done[surface][vertex];
     const Eigen::Vector3f mirror(-wo.x(), -wo.y(), wo.z());
-    Eigen::Vector3f diffuse_sum = Eigen::Vector3f::Zero();
     std::array<Eigen::Vector3f, kMaxLobes> glossy_sum;
     std::array<float, kMaxLobes> f;
     for (int g = 0; g < num_glossy; ++g) glossy_sum[g].setZero();
     const size_t num_texels = table.dir_local.size();
     constexpr float kVisibilityScale = 1.0f / 255.0f;
-    // The Lambertian sum: the vertex's row against the light's Haar coefficients.
-    if (need_diffuse) {
-      const uint32_t first = st.row_first[vertex];
-      for (uint32_t k = first; k < first + st.row_size[vertex]; ++k)
-        for (int c = 0; c < 3; ++c) diffuse_sum[c] += st.row_value[k] * light.haar[c][st.row_index[k]];
-    }
     const float cos_o = wo.z();
     // GGX factored (brdf.h): what depends on the view alone, once per vertex.
     std::array<float, kMaxLobes> ggx_view;
@@ -521,46 +631,20 @@ Eigen::Vector3f TransportRenderer::Shade(const LightState& light, int surface, u
         if (v > 0) add_direction(table.dir_local[j], v * table.solid_angle_cos[j]);
       }
     }
-    if (need_diffuse) {
-      mutable_light.diffuse[surface][vertex] = lambert_rgb.cwiseProduct(diffuse_sum) * static_cast<float>(1.0 / M_PI);
-      mutable_light.diffuse_done[surface][vertex] = 1;
-    }
-    radiance += light.diffuse[surface][vertex];
+    radiance += DiffuseEnv(&mutable_light, surface, vertex, lambert_rgb);
     for (int g = 0; g < num_glossy; ++g) radiance += kVisibilityScale * glossy_rgb[g].cwiseProduct(glossy_sum[g]);
   }
   // Delta lights, with one shadow ray each (kept per light).
-  if (light.num_delta > 0) {
-    const Lighting& lighting = *light.lighting;
-    const Eigen::Vector3f x = surf.mesh.vertices[vertex];
-    auto add = [&](size_t k, const Eigen::Vector3f& to_light, float distance, const Eigen::Vector3f& irradiance) {
-      const float cos_i = normal.dot(to_light);
-      if (cos_i <= 0) return;
-      uint8_t& state = mutable_light.delta_unblocked[surface][size_t(vertex) * light.num_delta + k];
-      if (state == 0) {
-        Ray ray;
-        ray.origin = x + ray_offset_ * normal;
-        ray.dir = to_light;
-        ray.t_far = distance;
-        state = scene_.caster().Occluded(ray) ? 2 : 1;
-      }
-      if (state != 1) return;
-      const Eigen::Vector3f wi = local_from_world * to_light;
-      Eigen::Vector3f fr = lambert_rgb * static_cast<float>(1.0 / M_PI);
-      for (int g = 0; g < num_glossy; ++g) fr += glossy_rgb[g] * st.lobes[glossy[g]].lobe->Eval<float>(wi, wo);
-      radiance += cos_i * fr.cwiseProduct(irradiance);
-    };
-    size_t k = 0;
-    for (const auto* list : {&lighting.directional, &light.suns})
-      for (const DirectionalLight& d : *list)
-        add(k++, d.dir_world.normalized().cast<float>(), std::numeric_limits<float>::infinity(),
-            d.irradiance_rgb.cast<float>());
-    for (const PointLight& p : lighting.points) {
-      const Eigen::Vector3f to = p.position_world.cast<float>() - x;
-      const float r = to.norm();
-      if (r > 0) add(k, to / r, r * (1 - 1e-4f), p.intensity_rgb.cast<float>() / (r * r));
-      ++k;
-    }
-  }
+  ForEachUnblockedDelta(&mutable_light, surface, vertex, normal,
+                        [&](const Eigen::Vector3f& to_light, float cos_i, const Eigen::Vector3f& irradiance) {
+                          const Eigen::Vector3f wi = local_from_world * to_light;
+                          Eigen::Vector3f fr = lambert_rgb * static_cast<float>(1.0 / M_PI);
+                          for (int g = 0; g < num_glossy; ++g)
+                            fr += glossy_rgb[g] * st.lobes[glossy[g]].lobe->Eval<float>(wi, wo);
+                          radiance += cos_i * fr.cwiseProduct(irradiance);
+                        });
+  // The bounce from the object's other vertices reaches its Lambertian lobes.
+  if (surface == 0 && !light.bounce_in.empty()) radiance += lambert_rgb.cwiseProduct(light.bounce_in[vertex]);
   return radiance;
 }
 

@@ -23,6 +23,19 @@
 // coefficients holding 99.9 % of its energy (at most 256); a light then costs one sparse dot product per
 // vertex with its Haar coefficients.
 //
+// With EnableInterreflection, one bounce of light between the object's own vertices (visibility/bounce.h),
+// as the inverse stage solves with `inverse.interreflection` (solver/interreflection.h), is added to the
+// object's Lambertian lobes:
+//     B_v(w_o) += Σ_{b Lambertian} k_{v,b} Σ_s w_s D_{h_s},   D_h = Σ_{b Lambertian} k_{h,b} E_h / π,
+// with (h_s, w_s) the vertices v sees along its blocked directions and their cosine weights, and D_h the
+// diffuse exit radiance of vertex h under the light's direct part (its Lambertian row as above, plus the
+// delta lights and the split-out sun where h's shadow ray is unblocked). When asked, occluder vertices the
+// object sees send theirs too (in the albedo the inverse stage recovered), but receive none. The light
+// a hit vertex's glossy lobes reflect is left out, and glossy lobes receive no bounce. D
+// is needed at every object vertex (any vertex can be hit), so a light's first use decodes the maps and
+// builds the Lambertian rows of all object vertices (kept, as for the vertices views see: a byte per
+// visibility texel) and casts their shadow rays; the gathered bounce is then kept per light.
+//
 // Glossy lobes are summed by adaptive quadrature: over a half-resolution map whose texels average four
 // visibility texels, except where a lobe is above 1 % of its peak (its core, widened by a texel), which keeps
 // the visibility map's own texels. A lobe at least three coarse texels wide (GGX/Beckmann α ≥ about 0.25 on
@@ -33,7 +46,7 @@
 // maps from the `visibility` stage: the vertices a view needs get theirs baked
 // on first use (visibility/visibility.h, kOccluderVisibilityResolution) and
 // kept for later views. View-independent parts (Lambertian sums, shadow-ray
-// results) are kept per light, so a turntable or a second view under the same
+// results, the bounce) are kept per light, so a turntable or a second view under the same
 // light costs only the glossy lobes. The cost of a view grows with the
 // vertices it sees (the glossy sums), Monte Carlo's with its pixels × samples.
 //
@@ -53,6 +66,7 @@
 #include "render/lighting.h"
 #include "render/render_view.h"
 #include "render/scene.h"
+#include "visibility/bounce.h"
 #include "visibility/visibility.h"
 
 namespace relight {
@@ -64,6 +78,12 @@ struct TransportRenderOptions {
   int pixel_samples_per_axis = 2;  // a regular k x k grid of camera rays per pixel (box filter)
   bool background = true;          // rays that miss every surface show the environment (else black)
   int band_rows = 32;              // image rows cast and shaded together (bounds memory on large photos)
+};
+
+// What TransportRenderer::EnableInterreflection computed.
+struct InterreflectionSummary {
+  size_t num_samples = 0;  // (vertex, vertex it sees) pairs over the object's vertices
+  double seconds = 0;      // time of ComputeBounceSamples
 };
 
 class TransportRenderer {
@@ -87,6 +107,12 @@ class TransportRenderer {
   Eigen::Vector3f VertexRadiance(const Lighting& lighting, int surface, int vertex,
                                  const Eigen::Vector3f& dir_out_world);
 
+  // Adds one bounce between the object's vertices (file comment), its samples cast against the whole scene
+  // (occluders block); with `occluders_bounce` the occluders (surface 1) send their diffuse light too. Call
+  // before rendering: the work kept for lights so far is dropped.
+  InterreflectionSummary EnableInterreflection(const BounceOptions& options, bool occluders_bounce);
+  bool interreflection() const { return interreflection_; }
+
   // Progress units Render advances for a camera (its bands of rows).
   static int64_t NumBands(const Camera& camera, const TransportRenderOptions& options);
 
@@ -100,6 +126,19 @@ class TransportRenderer {
   struct SurfaceState;
 
   LightState& Prepare(const Lighting& lighting);
+  // The bounce each object vertex receives under `light` (LightState::bounce_in), from every object vertex's
+  // diffuse exit radiance.
+  void PrepareBounce(LightState* light);
+  // D_h of `vertices` of `surface` under `light` (RGB per vertex of the surface; others 0).
+  std::vector<float> DiffuseExit(LightState* light, int surface, const std::vector<uint32_t>& vertices);
+  // The env part of the Lambertian lobes' radiance of `vertex` (summed albedo `lambert_rgb`), kept per light.
+  const Eigen::Vector3f& DiffuseEnv(LightState* light, int surface, uint32_t vertex,
+                                    const Eigen::Vector3f& lambert_rgb);
+  // Calls fn(to_light_world, cos_i, irradiance_rgb) for each delta light above the shading normal
+  // `normal_world` of `vertex` whose shadow ray is unblocked (the ray's result kept per light).
+  template <typename Fn>
+  void ForEachUnblockedDelta(LightState* light, int surface, uint32_t vertex, const Eigen::Vector3f& normal_world,
+                             Fn&& fn);
   // Fills `state`'s occluder visibility for the listed vertices that lack it.
   void EnsureOccluderVisibility(int surface, const std::vector<uint32_t>& vertices);
   Eigen::Vector3f Shade(const LightState& light, int surface, uint32_t vertex, const Eigen::Vector3f& dir_out_world);
@@ -112,6 +151,10 @@ class TransportRenderer {
   std::unique_ptr<CoarseTable> object_coarse_;  // glossy lobes' tails
   std::vector<std::unique_ptr<SurfaceState>> surfaces_;
   std::map<const Lighting*, std::unique_ptr<LightState>> lights_;
+  bool interreflection_ = false;
+  BounceSamples bounce_;                            // of the object's vertices, when interreflection_
+  BounceSamples occluder_bounce_;                   // their samples on the occluders (surface 1)
+  std::vector<uint32_t> occluder_bounce_vertices_;  // the occluder vertices those reach
   float ray_offset_ = 0;
   uint32_t views_rendered_ = 0;  // stamps of SurfaceState::view_stamp
 };

@@ -1,7 +1,10 @@
 // The transport renderer against the Monte Carlo reference on a scene where both are exact up to their
 // stated approximations (a smooth light, which the octahedral filtering keeps, and fine visibility maps):
 // per-vertex radiance within the reference's noise plus 3 % and unbiased, images of the same view with equal object
-// masks and equal mean radiance, and delta lights against the closed form E ρ cos θ / π with hard shadows.
+// masks and equal mean radiance, and delta lights against the closed form E ρ cos θ / π with hard shadows. The
+// one-bounce term inside a white hemispherical bowl, where it is over a quarter of the light: against its closed
+// form under a uniform sky and against the Monte Carlo renderer's bounce; and the bounce off a coloured
+// occluder ground onto a sphere, against the Monte Carlo renderer's.
 #include "relight/transport_render.h"
 
 #include <gtest/gtest.h>
@@ -134,6 +137,180 @@ TEST(TransportRender, ImageAgreesWithMonteCarloAndRerendersAreReused) {
   for (int y = 0; y < view.camera.height; ++y)
     for (int x = 0; x < view.camera.width; ++x)
       for (int c = 0; c < 3; ++c) ASSERT_EQ(again.radiance.at(x, y, c), got.radiance.at(x, y, c));
+}
+
+// A hemispherical bowl: the lower half of a sphere of radius 0.5 around (0, 0, 0.5), seen from inside (normals
+// radial, pointing in), `rings` rings of latitude up to the rim at the equator and `segments` around, Lambertian
+// albedo 0.8. Inside a sphere every surface element sees every other with the same form factor, dA / (4π R²),
+// so the bowl has closed forms: each point sees the opening (the upper half, the sky) with a cosine-weighted
+// share f = 1/2 and the bowl with 1 - f; under a uniform sky L the direct radiance is ρ f L everywhere and one
+// bounce adds ρ (1 - f) times it.
+TestScene MakeBowl(int rings, int segments) {
+  const Eigen::Vector3f center(0, 0, 0.5f);
+  const float radius = 0.5f;
+  TriangleMesh bowl;
+  bowl.vertices.push_back(center - Eigen::Vector3f(0, 0, radius));  // the bottom pole
+  for (int i = 1; i <= rings; ++i) {
+    const float polar = float(M_PI) * (1.0f - 0.5f * i / rings);  // from the bottom (π) to the rim (π/2)
+    for (int j = 0; j < segments; ++j) {
+      const float az = 2 * float(M_PI) * j / segments;
+      bowl.vertices.push_back(center + radius * Eigen::Vector3f(std::sin(polar) * std::cos(az),
+                                                                std::sin(polar) * std::sin(az), std::cos(polar)));
+    }
+  }
+  for (const Eigen::Vector3f& p : bowl.vertices) bowl.normals.push_back((center - p).normalized());
+  auto ring = [&](int i, int j) { return 1 + (i - 1) * segments + (j % segments); };
+  for (int j = 0; j < segments; ++j) bowl.faces.emplace_back(0, ring(1, j), ring(1, j + 1));
+  for (int i = 1; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      bowl.faces.emplace_back(ring(i, j), ring(i + 1, j), ring(i + 1, j + 1));
+      bowl.faces.emplace_back(ring(i, j), ring(i + 1, j + 1), ring(i, j + 1));
+    }
+  // Winding with the normals (front faces inside).
+  for (Eigen::Vector3i& f : bowl.faces) {
+    const Eigen::Vector3f n =
+        (bowl.vertices[f[1]] - bowl.vertices[f[0]]).cross(bowl.vertices[f[2]] - bowl.vertices[f[0]]);
+    if (n.dot(bowl.normals[f[0]] + bowl.normals[f[1]] + bowl.normals[f[2]]) < 0) std::swap(f[1], f[2]);
+  }
+  TestScene t;
+  t.scene = std::make_unique<Scene>(
+      ModelSurfaces(bowl, LambertianModel(Eigen::Vector3d::Constant(0.8)), TriangleMesh(), 0.35), "bowl");
+  t.visibility = ComputeVisibility(t.scene->surface(0).mesh, t.scene->caster(), VisibilityOptions());
+  return t;
+}
+
+// Mean radiance (RGB) over the pixels wholly on the object in `ref`.
+Eigen::Vector3d MeanObjectRadiance(const RenderedView& view, const RenderedView& ref, size_t* count) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  *count = 0;
+  for (int y = 0; y < view.radiance.height; ++y)
+    for (int x = 0; x < view.radiance.width; ++x) {
+      if (ref.mask.at(x, y) == 0 || ref.coverage.at(x, y) < 1) continue;
+      for (int c = 0; c < 3; ++c) sum[c] += view.radiance.at(x, y, c);
+      ++*count;
+    }
+  return sum / std::max<size_t>(1, *count);
+}
+
+TEST(TransportRender, InterreflectionMatchesClosedFormAndMonteCarloBounceInABowl) {
+  const TestScene t = MakeBowl(16, 64);
+  const TriangleMesh& mesh = t.scene->surface(0).mesh;
+  Image white(64, 32, 3, 1.0f), dim(64, 32, 3, 0.2f);
+  // A uniform sky, and a sun (delta light) lighting part of the bowl under a dim sky.
+  std::vector<std::pair<std::string, Lighting>> lights;
+  lights.emplace_back("uniform sky", Lighting::FromEnvMap(EnvMap::FromLatLong(white)));
+  Lighting sun = Lighting::FromEnvMap(EnvMap::FromLatLong(dim));
+  sun.directional.push_back({Eigen::Vector3d(-0.5, -0.3, 1.0).normalized(), Eigen::Vector3d(3.0, 2.5, 2.0)});
+  lights.emplace_back("sun and dim sky", std::move(sun));
+  // From above the bowl's middle: only its inside is seen.
+  const RenderCamera view = OrbitCamera("top", Eigen::Vector3d(0, 0, 0.25), 0.56, 20, 89.5, 80, 40, 0.9);
+  TransportRenderer renderer(*t.scene, t.visibility, 32);
+  TransportRenderOptions o;
+  std::vector<RenderedView> direct;
+  for (const auto& [name, lighting] : lights) direct.push_back(renderer.Render(lighting, view.camera, view.pose, o));
+  std::vector<float> direct_vertex;
+  for (size_t v = 0; v < mesh.num_vertices(); ++v)
+    direct_vertex.push_back(renderer.VertexRadiance(lights[0].second, 0, int(v), mesh.normals[v])[0]);
+  const InterreflectionSummary bounce = renderer.EnableInterreflection(BounceOptions(), false);
+  std::printf("bounce samples: %zu over %zu vertices in %.3f s\n", bounce.num_samples, mesh.num_vertices(),
+              bounce.seconds);
+
+  // Closed form under the uniform sky (L = 1, ρ = 0.8, f = 1/2): direct 0.4, with the bounce 0.4 (1 + 0.4) = 0.56.
+  double sum_direct = 0, sum_bounce = 0, max_error = 0;
+  for (size_t v = 0; v < mesh.num_vertices(); ++v) {
+    const float got = renderer.VertexRadiance(lights[0].second, 0, int(v), mesh.normals[v])[0];
+    sum_direct += direct_vertex[v];
+    sum_bounce += got;
+    max_error = std::max(max_error, std::abs(got / 0.56 - 1));
+  }
+  const double mean_direct = sum_direct / mesh.num_vertices(), mean_bounce = sum_bounce / mesh.num_vertices();
+  std::printf("closed form: vertex mean %.4f direct (0.4), %.4f with the bounce (0.56), largest error %.2f %%\n",
+              mean_direct, mean_bounce, 100 * max_error);
+  // The inscribed facets and the visibility maps' texels: 2 % on the mean, 5 % at any vertex.
+  EXPECT_NEAR(mean_direct, 0.4, 0.008);
+  EXPECT_NEAR(mean_bounce, 0.56, 0.011);
+  EXPECT_LT(max_error, 0.05);
+
+  // Images against the Monte Carlo renderer's bounce.
+  RenderOptions mc;
+  mc.light_samples = 16;
+  mc.brdf_samples = 16;
+  mc.interreflection = true;
+  for (size_t l = 0; l < lights.size(); ++l) {
+    const Lighting& lighting = lights[l].second;
+    const RenderedView ref = RenderView(*t.scene, lighting, view.camera, view.pose, mc);
+    const RenderedView got = renderer.Render(lighting, view.camera, view.pose, o);
+    size_t count = 0;
+    const Eigen::Vector3d ref_mean = MeanObjectRadiance(ref, ref, &count);
+    const Eigen::Vector3d got_mean = MeanObjectRadiance(got, ref, &count);
+    const Eigen::Vector3d direct_mean = MeanObjectRadiance(direct[l], ref, &count);
+    std::printf(
+        "%s: %zu pixels, mean R: Monte Carlo %.4f, transport %.4f (%+.2f %%), without the bounce %.4f "
+        "(%+.2f %%); %.2f s and %.2f s\n",
+        lights[l].first.c_str(), count, ref_mean[0], got_mean[0], 100 * (got_mean[0] / ref_mean[0] - 1), direct_mean[0],
+        100 * (direct_mean[0] / ref_mean[0] - 1), ref.seconds, got.seconds);
+    ASSERT_GT(count, 2000u);
+    for (int c = 0; c < 3; ++c) {
+      // Within 2 %: the visibility maps, the 12² bounce rays and the Gouraud shading of the sun's shadow edge,
+      // against a reference whose mean has far less noise.
+      EXPECT_NEAR(got_mean[c] / ref_mean[c], 1.0, 0.02) << lights[l].first << " channel " << c;
+      // Without the bounce the bowl is far darker (the bounce is over a quarter of its light here).
+      EXPECT_LT(direct_mean[c] / ref_mean[c], 0.85) << lights[l].first << " channel " << c;
+    }
+  }
+}
+
+// An occluder bounces light too: a grey Lambertian sphere resting above a coloured ground (an occluder of
+// albedo (0.8, 0.5, 0.2), as the inverse stage recovers it), lit by a sun and a dim sky, seen from low so that
+// its underside, lit mostly by the ground, fills much of the view. Against the Monte Carlo renderer's bounce.
+TEST(TransportRender, InterreflectionFromAnOccluderMatchesMonteCarlo) {
+  const TriangleMesh sphere = render_testing::Icosphere(0.5, Eigen::Vector3d(0, 0, 0.52), 3);
+  const TriangleMesh ground = render_testing::Plane(2.0, 0.0, 40);
+  TestScene t;
+  t.scene = std::make_unique<Scene>(
+      ModelSurfaces(sphere, LambertianModel(Eigen::Vector3d::Constant(0.5)), ground, Eigen::Vector3d(0.8, 0.5, 0.2)),
+      "sphere on a coloured ground");
+  t.visibility = ComputeVisibility(t.scene->surface(0).mesh, t.scene->caster(), VisibilityOptions());
+  Image dim(64, 32, 3, 0.2f);
+  Lighting lighting = Lighting::FromEnvMap(EnvMap::FromLatLong(dim));
+  lighting.directional.push_back({Eigen::Vector3d(0.4, -0.2, 1.0).normalized(), Eigen::Vector3d(3.0, 3.0, 3.0)});
+  const RenderCamera view = OrbitCamera("low", Eigen::Vector3d(0, 0, 0.52), 0.5, 30, 3, 80, 35, 0.9);
+  TransportRenderer renderer(*t.scene, t.visibility, 32);
+  TransportRenderOptions o;
+  o.background = false;
+  const RenderedView direct = renderer.Render(lighting, view.camera, view.pose, o);
+  renderer.EnableInterreflection(BounceOptions(), true);
+  const RenderedView got = renderer.Render(lighting, view.camera, view.pose, o);
+  RenderOptions mc;
+  mc.light_samples = 16;
+  mc.brdf_samples = 16;
+  mc.interreflection = true;
+  mc.background = false;
+  const RenderedView ref = RenderView(*t.scene, lighting, view.camera, view.pose, mc);
+  size_t count = 0;
+  const Eigen::Vector3d ref_mean = MeanObjectRadiance(ref, ref, &count);
+  const Eigen::Vector3d got_mean = MeanObjectRadiance(got, ref, &count);
+  const Eigen::Vector3d direct_mean = MeanObjectRadiance(direct, ref, &count);
+  std::printf(
+      "occluder bounce: %zu pixels, mean RGB: Monte Carlo %.4f %.4f %.4f, transport %.4f %.4f %.4f, without "
+      "the bounce %.4f %.4f %.4f\n",
+      count, ref_mean[0], ref_mean[1], ref_mean[2], got_mean[0], got_mean[1], got_mean[2], direct_mean[0],
+      direct_mean[1], direct_mean[2]);
+  ASSERT_GT(count, 1000u);
+  for (int c = 0; c < 3; ++c) {
+    // Within 3 %: the sphere's and the ground's visibility maps (the ground's baked at 16²), the 12² bounce
+    // rays, the Gouraud shading of the sun's shadow on the ground.
+    EXPECT_NEAR(got_mean[c] / ref_mean[c], 1.0, 0.03) << "channel " << c;
+  }
+  // The ground's colour: its red light raises the red channel most (without the bounce all three are equal).
+  EXPECT_LT(direct_mean[0] / ref_mean[0], 0.9);
+  EXPECT_GT(got_mean[0] / got_mean[2], 1.1);
+  // Occluders that only block (inverse.interreflection: mesh): a convex sphere then gets no bounce at all, in
+  // both renderers.
+  mc.bounce_from_occluders = false;
+  const RenderedView ref_blocking = RenderView(*t.scene, lighting, view.camera, view.pose, mc);
+  const Eigen::Vector3d blocking_mean = MeanObjectRadiance(ref_blocking, ref, &count);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(blocking_mean[c] / direct_mean[c], 1.0, 0.03) << "channel " << c;
 }
 
 TEST(TransportRender, DirectionalLightMatchesClosedFormWithHardShadows) {

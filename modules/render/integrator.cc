@@ -195,6 +195,8 @@ Eigen::Vector3d Shade(const Scene& scene, const Lighting& lighting, const Surfac
       if (bounce) {
         const RayHit hit = scene.caster().Intersect(ray);
         if (hit.hit) {
+          if (!options.bounce_from_occluders && scene.surface(int(hit.geom_id)).role == SurfaceRole::kOccluder)
+            continue;  // blocked, and sends nothing back
           const SurfacePoint q = scene.PointFromHit(hit);
           const Eigen::Vector3d incoming = Shade(scene, lighting, q, -wi, options, options.bounce_light_samples,
                                                  options.bounce_brdf_samples, false, rng);

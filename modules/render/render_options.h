@@ -10,6 +10,8 @@ struct RenderOptions {
   int light_samples = 8;              // environment importance samples per shading point
   int brdf_samples = 8;               // BRDF importance samples per shading point (MIS, power heuristic)
   bool interreflection = false;       // add one bounce of indirect light (direct light where BRDF samples hit)
+  bool bounce_from_occluders =
+      true;  // with interreflection: occluder surfaces reflect light too (else they only block)
   int bounce_light_samples = 2;       // environment samples at a point reached by a bounce
   int bounce_brdf_samples = 1;        // BRDF samples at a point reached by a bounce
   uint64_t seed = 1;                  // output is a deterministic function of the seed, whatever the thread count

@@ -15,13 +15,15 @@
 #include "geometry/mesh_io.h"
 #include "image/color.h"
 #include "image/image.h"
+#include "solver/interreflection.h"
 #include "solver/lighting.h"
-#include "solver/natural_light.h"
 #include "solver/lobe_spec.h"
+#include "solver/natural_light.h"
 #include "solver/reflectance.h"
 #include "sphere/envmap.h"
 #include "sphere/octahedral.h"
 #include "sphere/sh.h"
+#include "visibility/bounce.h"
 #include "wavelet/haar.h"
 
 namespace relight {
@@ -69,6 +71,7 @@ void ApplyGauge(const Eigen::Vector3d& s, LightingState* l, ReflectanceState* r)
       for (float& v : photo[c]) v = static_cast<float>(v * s[c]);
   l->UpdateCoefficients();
   for (auto& coeff : r->coefficients) coeff = coeff.cwiseQuotient(s);
+  r->occluder_albedo = r->occluder_albedo.cwiseQuotient(s);
 }
 
 Eigen::Vector3d GaugeScale(const std::string& gauge, const LightingState& l, const ReflectanceState& r,
@@ -100,6 +103,7 @@ void Extrapolate(const LightingState& prev_l, const ReflectanceState& prev_r, do
     r->coefficients[k] = (prev_r.coefficients[k] + step * (r->coefficients[k] - prev_r.coefficients[k])).cwiseMax(0.0);
   for (size_t k = 0; k < r->weights.size(); ++k)
     r->weights[k] = std::max(0.0f, static_cast<float>(prev_r.weights[k] + step * (r->weights[k] - prev_r.weights[k])));
+  r->occluder_albedo = (prev_r.occluder_albedo + step * (r->occluder_albedo - prev_r.occluder_albedo)).cwiseMax(0.0);
 }
 
 }  // namespace
@@ -118,6 +122,23 @@ struct SolveContext {
   std::vector<std::vector<uint32_t>> neighbours;
   std::vector<char> observed;
   const Timer* solve_timer = nullptr;  // started with SolveInverse: IterationRecord::solve_seconds
+  // inverse.interreflection: the bounce between the mesh's vertices (lagged, solver/interreflection.h); null: off.
+  IndirectLight* indirect = nullptr;
+
+  // Makes the indirect light that of (lighting, reflectance); unobserved vertices reflect with their
+  // neighbours' weights, as the result will.
+  void UpdateIndirect(const LightingState& lighting, const ReflectanceState& reflectance) const {
+    if (indirect == nullptr) return;
+    ReflectanceState filled = reflectance;
+    FillUnobservedWeights(problem.mesh, observed, &filled);
+    indirect->Update(lighting, filled);
+  }
+  // Per-lobe responses of `ids` under `lighting`, the bounce (at its last update) included.
+  std::vector<float> Responses(const std::vector<uint32_t>& ids, const LightingState& lighting) const {
+    std::vector<float> responses = ComputeLobeResponses(transport, problem.observations, ids, lighting);
+    if (indirect != nullptr) indirect->AddToResponses(ids, 1.0f, &responses);
+    return responses;
+  }
 };
 
 // One candidate model.
@@ -167,6 +188,18 @@ struct Alternation {
   bool solve_reflectance = true;
 };
 
+// With the occluders' bounce: their albedo from the light they bounce onto the mesh under the current
+// model (`responses` of `ids`, the bounce included, are updated to the new albedo).
+void FitOccluderAlbedo(const SolveContext& ctx, const std::vector<uint32_t>& ids, ReflectanceState* reflectance,
+                       std::vector<float>* responses) {
+  if (ctx.indirect == nullptr || !ctx.indirect->has_occluders()) return;
+  const Eigen::Vector3d albedo = ctx.indirect->FitOccluderAlbedo(ids, *responses, *reflectance);
+  ctx.indirect->AddToResponses(ids, -1.0f, responses);
+  ctx.indirect->SetOccluderAlbedo(albedo);
+  reflectance->occluder_albedo = albedo;
+  ctx.indirect->AddToResponses(ids, 1.0f, responses);
+}
+
 // Sets up an alternation at its starting point (no iteration run yet).
 Alternation StartAlternation(const SolveContext& ctx, const ModelSpec& spec) {
   const InverseOptions& o = ctx.o;
@@ -201,6 +234,8 @@ Alternation StartAlternation(const SolveContext& ctx, const ModelSpec& spec) {
   }
   a.refit_initialisation =
       a.solve_reflectance && o.init == "vertex_fits" && !(known != nullptr && known->has_reflectance);
+  if (ctx.indirect != nullptr && ctx.indirect->has_occluders() && reflectance.occluder_albedo.isZero())
+    reflectance.occluder_albedo.setConstant(kOccluderAlbedoStart);
   a.result.stop_reason = "max_iterations reached";
   return a;
 }
@@ -252,16 +287,24 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
       const bool coarse =
           solve_reflectance && o.lighting_basis == "haar" && iter < spec.coarse_iterations && o.env_resolution >= 16;
       if (coarse) resolution = std::min(resolution > 0 ? resolution : o.env_resolution, o.env_resolution / 2);
-      const LightingStepResult lr = SolveLighting(transport, obs, ctx.subset, reflectance, o, &lighting, resolution);
+      // With the bounce, the maps explain the photos minus the indirect light under the current model.
+      ObservationSet direct_targets;
+      if (ctx.indirect != nullptr) {
+        ctx.UpdateIndirect(lighting, reflectance);
+        direct_targets = ctx.indirect->DirectTargets(reflectance);
+      }
+      const LightingStepResult lr = SolveLighting(transport, ctx.indirect != nullptr ? direct_targets : obs, ctx.subset,
+                                                  reflectance, o, &lighting, resolution);
       rec.lighting_seconds = lr.seconds;
       rec.photo_rmse = lr.photo_rmse;
     }
     step.Restart();
-    std::vector<float> responses = ComputeLobeResponses(transport, obs, train, lighting);
+    ctx.UpdateIndirect(lighting, reflectance);
+    std::vector<float> responses = ctx.Responses(train, lighting);
     if (refit_initialisation) {
       // inverse.init = vertex_fits: the materials start from per-vertex fits under this first lighting.
       const std::vector<float> exact_responses =
-          has_bounds ? ComputeLobeResponses(transport, obs, ctx.train_exact, lighting) : std::vector<float>();
+          has_bounds ? ctx.Responses(ctx.train_exact, lighting) : std::vector<float>();
       reflectance = InitializeReflectanceFromFits(obs, ctx.train_exact, has_bounds ? exact_responses : responses, nv,
                                                   basis, spec.materials, o.seed);
       reflectance.lobe_enabled = spec.lobe_enabled;
@@ -285,7 +328,10 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
         if (has_bounds) met = MetLowerBounds(obs, train, responses, reflectance);
         SolveWeights(obs, train, responses, o.sparsity, &reflectance, &ctx.neighbours, o.weight_smoothness, robust_ptr,
                      &met);
+        FitOccluderAlbedo(ctx, train, &reflectance, &responses);
       }
+    } else {
+      FitOccluderAlbedo(ctx, train, &reflectance, &responses);
     }
     rec.reflectance_seconds = step.Seconds();
     double sse, weight;
@@ -302,7 +348,9 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
         LightingState cand_l = lighting;
         ReflectanceState cand_r = reflectance;
         Extrapolate(prev_lighting, prev_reflectance, trial, &cand_l, &cand_r);
-        std::vector<float> cand_resp = ComputeLobeResponses(transport, obs, train, cand_l);
+        // The bounce held at this iteration's, but for the occluders' albedo (it enters linearly).
+        if (ctx.indirect != nullptr) ctx.indirect->SetOccluderAlbedo(cand_r.occluder_albedo);
+        std::vector<float> cand_resp = ctx.Responses(train, cand_l);
         double cand_sse, cand_w;
         ResidualStats(obs, train, cand_resp, cand_r, &cand_sse, &cand_w, robust_ptr);
         if (cand_sse < sse) {
@@ -321,14 +369,18 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
         responses = std::move(best_resp);
         rec.extrapolation = best_step;
       }
+      if (ctx.indirect != nullptr) ctx.indirect->SetOccluderAlbedo(reflectance.occluder_albedo);
     }
     // Gauge: fix the scale ambiguity (the product ρ·L is unchanged).
     if (solve_lighting && solve_reflectance) {
       const Eigen::Vector3d g = GaugeScale(o.gauge, lighting, reflectance, ctx.observed);
       ApplyGauge(g, &lighting, &reflectance);
       // Responses are linear in the lighting: channel c scales by g_c (equal to
-      // recomputing them up to float rounding, at a fraction of the cost).
+      // recomputing them up to float rounding, at a fraction of the cost). The
+      // bounce, ρ_h times the light, does not change with the gauge.
+      if (ctx.indirect != nullptr) ctx.indirect->AddToResponses(train, -1.0f, &responses);
       ScaleResponses(g, &responses);
+      if (ctx.indirect != nullptr) ctx.indirect->AddToResponses(train, 1.0f, &responses);
       ResidualStats(obs, train, responses, reflectance, &sse, &weight, robust_ptr);
     }
     rec.objective = sse;
@@ -339,7 +391,8 @@ void ContinueAlternation(const SolveContext& ctx, const ModelSpec& spec, Alterna
       rec.train_rmse = std::sqrt(plain_sse / std::max(1e-30, plain_weight));
     }
     if (!ctx.holdout.empty()) {
-      const std::vector<float> hr = ComputeLobeResponses(transport, obs, ctx.holdout, lighting);
+      ctx.UpdateIndirect(lighting, reflectance);
+      const std::vector<float> hr = ctx.Responses(ctx.holdout, lighting);
       double hs, hw;
       ResidualStats(obs, ctx.holdout, hr, reflectance, &hs, &hw);
       rec.holdout_rmse = std::sqrt(hs / std::max(1e-30, hw));
@@ -485,9 +538,10 @@ ModelSpec SelectModel(const SolveContext& ctx, ModelSpec spec, const std::vector
 // How the final model meets the training lower bounds (clipped footprints): the share of bound
 // channels it stays more than 1% below (active bounds end at equality, up to the solver's
 // tolerance), and by how much on average, relative to the bound.
-void MeasureLowerBounds(const TransportStore& transport, const ObservationSet& obs, const std::vector<uint32_t>& train,
-                        const InverseResult& result, InverseSummary* summary) {
-  const std::vector<float> responses = ComputeLobeResponses(transport, obs, train, result.lighting);
+void MeasureLowerBounds(const SolveContext& ctx, const InverseResult& result, InverseSummary* summary) {
+  const ObservationSet& obs = ctx.problem.observations;
+  const std::vector<uint32_t>& train = ctx.train;
+  const std::vector<float> responses = ctx.Responses(train, result.lighting);
   size_t bounds = 0, missed = 0;
   double shortfall = 0;
   std::vector<float> rho(result.reflectance.num_lobes() * 3);
@@ -524,19 +578,25 @@ bool UseFootprintRows(const InverseOptions& o, const InverseProblem& problem) {
   return problem.mesh_source == "ground_truth" || problem.mesh_source == "file";
 }
 
-// The solve's transport rows (TransportOptions from the inverse options), with their counts and time in `summary`.
-TransportStore BuildSolveTransport(const InverseProblem& problem, const InverseOptions& o,
-                                   const std::vector<BrdfLobe>& basis, InverseSummary* summary) {
-  Timer step;
+// The rows' lighting basis, map size and truncation from the inverse options.
+TransportOptions SolveTransportOptions(const InverseOptions& o) {
   TransportOptions to;
-  to.basis = basis;
   to.lighting_basis = o.lighting_basis;
   to.env_resolution = o.env_resolution;
   to.sh_order = o.sh_order;
   to.keep_energy = o.transport_keep_energy;
+  to.max_coefficients = o.transport_max_coefficients;
+  return to;
+}
+
+// The solve's transport rows (TransportOptions from the inverse options), with their counts and time in `summary`.
+TransportStore BuildSolveTransport(const InverseProblem& problem, const InverseOptions& o,
+                                   const std::vector<BrdfLobe>& basis, InverseSummary* summary) {
+  Timer step;
+  TransportOptions to = SolveTransportOptions(o);
+  to.basis = basis;
   summary->transport_footprint = UseFootprintRows(o, problem);
   to.footprint_scale = summary->transport_footprint ? problem.footprint_scale : 0.0;
-  to.max_coefficients = o.transport_max_coefficients;
   to.route = o.transport;
   to.supersampling = o.transport_supersampling;
   to.spill_dir = problem.scratch_dir;
@@ -574,6 +634,36 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   // Held-out and training observations; per-photo lighting subsets.
   SolveContext ctx{problem, o, known, transport, {}, {}, {}, {}, {}, {}};
   ctx.solve_timer = &total;
+  // inverse.interreflection: the mesh's bounce samples (occluders block them), then the lagged indirect light.
+  BounceSamples bounce;
+  OccluderBounce occluder_bounce;
+  std::unique_ptr<IndirectLight> indirect;
+  if (o.interreflection != "off") {
+    Timer bounce_timer;
+    std::vector<const TriangleMesh*> scene{&problem.mesh};
+    if (!problem.occluders.empty()) scene.push_back(&problem.occluders);
+    const RayCaster caster(scene);
+    // Occluders block the bounce's rays either way; with mesh_and_occluders they bounce light too.
+    const bool occluders_bounce = o.interreflection == "mesh_and_occluders" && !problem.occluders.empty();
+    BounceSamples occluder_samples;
+    bounce =
+        ComputeBounceSamples(problem.mesh, caster, BounceOptions(), occluders_bounce ? &occluder_samples : nullptr);
+    if (occluders_bounce) {
+      // The occluders' rows: the solve's lighting basis, their visibility at a coarser resolution (only
+      // their diffuse light matters).
+      occluder_bounce = BuildOccluderBounce(problem.occluders, caster, std::move(occluder_samples),
+                                            SolveTransportOptions(o), kOccluderBounceVisibilityResolution);
+    }
+    indirect = std::make_unique<IndirectLight>(transport, bounce, obs,
+                                               occluder_bounce.vertices.empty() ? nullptr : &occluder_bounce);
+    ctx.indirect = indirect.get();
+    summary.interreflection_seconds = bounce_timer.Seconds();
+    summary.interreflection_mean_sources = double(bounce.hit_vertex.size()) / std::max<size_t>(1, nv);
+    summary.interreflection_occluder_vertices = occluder_bounce.vertices.size();
+    RLOG_INFO("interreflection: {} x {} rays, {:.1f} source vertices per vertex, {} occluder vertices, {:.1f} s", nv,
+              BounceOptions().rays_per_side * BounceOptions().rays_per_side, summary.interreflection_mean_sources,
+              occluder_bounce.vertices.size(), summary.interreflection_seconds);
+  }
   std::mt19937_64 rng(static_cast<uint64_t>(o.seed));
   std::uniform_real_distribution<double> uniform(0, 1);
   for (size_t k = 0; k < obs.records.size(); ++k) {
@@ -683,7 +773,19 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   summary.best_iteration = final_result.best_iteration;
   summary.stop_reason = final_result.stop_reason;
   if (summary.chosen_model.empty()) summary.chosen_model = DescribeSpec(spec, basis, o.env_resolution);
-  if (summary.lower_bounds > 0) MeasureLowerBounds(transport, obs, ctx.train, result, &summary);
+  if (ctx.indirect != nullptr) {
+    ctx.UpdateIndirect(result.lighting, result.reflectance);
+    summary.interreflection_share = ctx.indirect->IndirectShare(ctx.train, ctx.Responses(ctx.train, result.lighting));
+    RLOG_INFO("interreflection: the bounce brings {:.1f} % of the diffuse light the training observations receive",
+              100 * summary.interreflection_share);
+    if (ctx.indirect->has_occluders()) {
+      summary.interreflection_occluder_albedo = result.reflectance.occluder_albedo;
+      RLOG_INFO("interreflection: the occluders' albedo {:.3f} {:.3f} {:.3f} (relative to the object's)",
+                result.reflectance.occluder_albedo[0], result.reflectance.occluder_albedo[1],
+                result.reflectance.occluder_albedo[2]);
+    }
+  }
+  if (summary.lower_bounds > 0) MeasureLowerBounds(ctx, result, &summary);
   const bool measure_resolution = o.map_resolution == "on" || (o.map_resolution == "auto" &&
                                                                (o.lighting_basis != "haar" || o.env_resolution <= 32));
   if (measure_resolution && !(o.fixed_lighting && known != nullptr && known->has_lighting)) {
@@ -769,24 +871,38 @@ std::string ReadMeshSource(const std::string& mesh_dir) {
   return it != j.end() && it->is_string() ? it->get<std::string>() : "";
 }
 
+InverseProblem ReadInverseProblem(const std::string& mesh_dir, const std::string& visibility_dir,
+                                  const std::string& observe_dir) {
+  const std::string mesh = JoinPath(mesh_dir, "mesh.ply"), vis = JoinPath(visibility_dir, "visibility.bin"),
+                    obs = JoinPath(observe_dir, "observations.bin"), photos = JoinPath(observe_dir, "photos.json");
+  for (const std::string& path : {mesh, vis, obs, photos})
+    if (!fs::is_regular_file(path))
+      RELIGHT_USER_ERROR() << "'" << path << "' is missing; rerun the stage that writes it";
+  InverseProblem p;
+  p.mesh = ReadMesh(mesh);
+  if (p.mesh.normals.size() != p.mesh.num_vertices()) p.mesh.ComputeVertexNormals();
+  if (const std::string occluders = JoinPath(mesh_dir, "occluders.ply"); fs::is_regular_file(occluders)) {
+    p.occluders = ReadMesh(occluders);
+    if (p.occluders.normals.size() != p.occluders.num_vertices()) p.occluders.ComputeVertexNormals();
+  }
+  p.visibility = ReadVisibility(vis);
+  p.observations = ReadObservations(obs);
+  p.photos = ReadObservedPhotos(photos);
+  p.footprint_scale = ReadObservedFootprintScale(photos);
+  p.mesh_source = ReadMeshSource(mesh_dir);
+  if (p.visibility.per_vertex.size() != p.mesh.num_vertices() || p.observations.num_vertices != p.mesh.num_vertices()) {
+    RELIGHT_USER_ERROR() << "'" << mesh << "' (" << p.mesh.num_vertices() << " vertices), '" << vis << "' ("
+                         << p.visibility.per_vertex.size() << ") and '" << obs << "' (" << p.observations.num_vertices
+                         << ") disagree; rerun from the mesh stage";
+  }
+  return p;
+}
+
 InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir, const std::string& mesh_dir,
                           const std::string& visibility_dir, const std::string& observe_dir,
                           const std::string& output_dir) {
-  InverseProblem problem;
-  problem.mesh = ReadMesh(JoinPath(mesh_dir, "mesh.ply"));
-  if (problem.mesh.normals.size() != problem.mesh.num_vertices()) problem.mesh.ComputeVertexNormals();
-  problem.visibility = ReadVisibility(JoinPath(visibility_dir, "visibility.bin"));
-  problem.observations = ReadObservations(JoinPath(observe_dir, "observations.bin"));
-  problem.photos = ReadObservedPhotos(JoinPath(observe_dir, "photos.json"));
-  problem.footprint_scale = ReadObservedFootprintScale(JoinPath(observe_dir, "photos.json"));
-  problem.mesh_source = ReadMeshSource(mesh_dir);
+  InverseProblem problem = ReadInverseProblem(mesh_dir, visibility_dir, observe_dir);
   problem.scratch_dir = output_dir;
-  if (problem.visibility.per_vertex.size() != problem.mesh.num_vertices() ||
-      problem.observations.num_vertices != problem.mesh.num_vertices()) {
-    RELIGHT_USER_ERROR() << "mesh (" << problem.mesh.num_vertices() << " vertices), visibility ("
-                         << problem.visibility.per_vertex.size() << ") and observations ("
-                         << problem.observations.num_vertices << ") disagree; rerun from the mesh stage";
-  }
   KnownQuantities known;
   if (o.fixed_lighting || o.fixed_reflectance || o.start_from_truth) known = LoadKnown(o, ingest_dir, problem);
   const InverseResult result = SolveInverse(problem, o, &known);
@@ -873,8 +989,18 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
     }
     photos_json.push_back(entry);
   }
-  WriteJsonAtomic(JoinPath(output_dir, "lighting.json"),
-                  Json{{"basis", o.lighting_basis}, {"env_resolution", n_out}, {"photos", photos_json}});
+  WriteJsonAtomic(JoinPath(output_dir, "lighting.json"), [&] {
+    Json j{{"basis", o.lighting_basis}, {"env_resolution", n_out}, {"photos", photos_json}};
+    // Relight renders the bounce the maps were solved with.
+    if (o.interreflection != "off") {
+      j["interreflection"] = Json{{"rays_per_side", BounceOptions().rays_per_side}};
+      if (result.summary.interreflection_occluder_vertices > 0) {
+        const Eigen::Vector3d& a = result.reflectance.occluder_albedo;
+        j["interreflection"]["occluder_albedo"] = {a[0], a[1], a[2]};
+      }
+    }
+    return j;
+  }());
 
   const ReflectanceState& r = result.reflectance;
   TriangleMesh out = problem.mesh;
@@ -912,6 +1038,16 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
     j["lower_bounds_mean_shortfall"] = s.lower_bounds_mean_shortfall;
   }
   j["transport_seconds"] = s.transport_seconds;
+  if (s.interreflection_seconds > 0) {
+    j["interreflection"] = {{"seconds", s.interreflection_seconds},
+                            {"mean_source_vertices", s.interreflection_mean_sources},
+                            {"indirect_share", s.interreflection_share},
+                            {"occluder_vertices", s.interreflection_occluder_vertices}};
+    if (s.interreflection_occluder_vertices > 0) {
+      const Eigen::Vector3d& a = s.interreflection_occluder_albedo;
+      j["interreflection"]["occluder_albedo"] = {a[0], a[1], a[2]};
+    }
+  }
   j["transport_footprint"] = s.transport_footprint;
   j["transport_mean_coefficients_per_row"] = s.transport_mean_coefficients_per_row;
   Json iters = Json::array();

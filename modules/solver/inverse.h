@@ -21,6 +21,7 @@ namespace relight {
 // Everything the solver reads.
 struct InverseProblem {
   TriangleMesh mesh;                 // with vertex normals
+  TriangleMesh occluders;            // <mesh>/occluders.ply (may be empty): blocks the bounce's rays
   VisibilityData visibility;
   ObservationSet observations;
   std::vector<ObservedPhoto> photos;
@@ -30,6 +31,12 @@ struct InverseProblem {
   // output folder); empty keeps the rows in memory.
   std::string scratch_dir;
 };
+
+// The problem the stages before `inverse` wrote: <mesh>/mesh.ply (and occluders.ply when present, for
+// inverse.interreflection), <visibility>/visibility.bin, <observe>/observations.bin and photos.json. Throws
+// UserError naming the file that is missing, damaged or of another mesh.
+InverseProblem ReadInverseProblem(const std::string& mesh_dir, const std::string& visibility_dir,
+                                  const std::string& observe_dir);
 
 // Optional known quantities (synthetic scenes): per-photo octahedral RGB maps
 // at the solver's resolution (photo units, i.e. including exposure and white
@@ -92,6 +99,13 @@ struct InverseSummary {
   bool transport_footprint = false;        // rows averaged over observation footprints (inverse.transport_footprint)
   size_t transport_coefficients = 0;
   double transport_mean_coefficients_per_row = 0;
+  // inverse.interreflection: time of the bounce's ray cast, vertices it reaches per vertex (mean), and the
+  // indirect light's share of the Lambertian responses of the training observations at the end.
+  double interreflection_seconds = 0;
+  double interreflection_mean_sources = 0;
+  double interreflection_share = 0;
+  size_t interreflection_occluder_vertices = 0;  // occluder vertices the mesh receives bounced light from
+  Eigen::Vector3d interreflection_occluder_albedo = Eigen::Vector3d::Zero();  // ReflectanceState::occluder_albedo
   size_t train_observations = 0;
   size_t holdout_observations = 0;
   size_t lower_bounds = 0;  // observations that are lower bounds (clipped footprints), train and held out

@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 14};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 15};
 
 struct InverseOptions {
   // Lighting representation.
@@ -24,6 +24,7 @@ struct InverseOptions {
   int transport_max_coefficients = 256; // cap per row
   std::string transport_footprint = "auto";  // rows average over each observation's footprint: auto, on or off
   int transport_supersampling = 0;      // sub-samples per visibility texel side (0: automatic)
+  std::string interreflection = "mesh";  // one bounce of light: off, mesh (between its surfaces) or mesh_and_occluders
 
   // Reflectance model.
   std::vector<std::string> basis = {"lambertian", "ggx:0.1", "ggx:0.3", "phong:50", "phong:500"};
@@ -128,6 +129,16 @@ struct InverseOptions {
            "the three synthetic scenes in about 0.6 of their alternation time (docs/RESULTS.md@15cf301 item 21); the "
            "leader can change later, so 0 is the safe choice when time does not matter.")
         .Range(0, 1000);
+    t->Add("interreflection", &interreflection,
+           "One bounce of diffuse light (solver/interreflection.h): a direction the scene blocks brings the light "
+           "the surface there reflects diffusely, instead of none. mesh: between the mesh's own surfaces (the object "
+           "onto itself, a reconstructed ground onto the object); mesh_and_occluders: <mesh>/occluders.ply also "
+           "bounces, in one albedo recovered with the rest (a given ground the object stands on); off: direct light "
+           "only, the paper's model. The occluders' albedo trades against the object's where few photos tell them "
+           "apart, so mesh_and_occluders is for scenes whose ground visibly lights the object. Costs a ray cast of "
+           "the mesh (144 rays a vertex), two gathers per iteration and, with occluders, rows for the occluder "
+           "vertices the mesh sees; relight renders the same bounce.")
+        .Choices({"off", "mesh", "mesh_and_occluders"});
     t->Add("sparsity", &sparsity,
            "Penalty on the sum of a vertex's material weights, relative to its data term (favours few materials).")
         .Range(0, 1);

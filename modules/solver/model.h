@@ -20,6 +20,9 @@ struct ReflectanceState {
   std::vector<Eigen::Vector3d> coefficients;  // [m * B + b]: RGB weight of lobe b in material m (>= 0)
   std::vector<float> weights;                 // [v * M + m]: material weights of vertex v (>= 0)
   std::vector<char> lobe_enabled;             // per lobe; empty: all. Disabled lobes keep coefficient 0.
+  // Diffuse RGB albedo of the occluders (<mesh>/occluders.ply), one for all of them: recovered with
+  // inverse.interreflection from the light they bounce onto the mesh (solver/interreflection.h); zero otherwise.
+  Eigen::Vector3d occluder_albedo = Eigen::Vector3d::Zero();
 
   bool enabled(int lobe) const { return lobe_enabled.empty() || lobe_enabled[lobe]; }
 

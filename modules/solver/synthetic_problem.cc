@@ -8,9 +8,11 @@
 #include "core/error.h"
 #include "geometry/primitives.h"
 #include "geometry/raycaster.h"
+#include "solver/interreflection.h"
 #include "solver/lobe_spec.h"
 #include "sphere/frame.h"
 #include "sphere/octahedral.h"
+#include "visibility/bounce.h"
 #include "wavelet/haar.h"
 
 namespace relight {
@@ -60,8 +62,11 @@ SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
   TriangleMesh mesh = o.vertices <= 4100 && o.displacement == 0 ? MakeIcosphere(5) : Blob(o.vertices, o.displacement);
   for (auto& v : mesh.vertices) v.z() += 1.05f + static_cast<float>(o.displacement);
   mesh.ComputeVertexNormals();
-  const TriangleMesh ground = MakeGrid(-8, 8, -8, 8, 0, 4, 4);
+  const int ground_cells = o.interreflection && o.ground_albedo > 0 ? 64 : 4;
+  TriangleMesh ground = MakeGrid(-8, 8, -8, 8, 0, ground_cells, ground_cells);
+  if (ground.normals.size() != ground.num_vertices()) ground.ComputeVertexNormals();
   s.problem.mesh = mesh;
+  s.problem.occluders = ground;
   // The observations come from this very mesh (with footprint rows, TransportOptions' default).
   s.problem.mesh_source = "ground_truth";
   const size_t nv = mesh.num_vertices();
@@ -193,6 +198,30 @@ SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
   l.UpdateCoefficients();
   tbb::parallel_for(size_t(0), obs.records.size(),
                     [&](size_t k) { Predict(transport, obs, k, r, l, obs.records[k].rgb); });
+  if (o.interreflection) {
+    const bool ground_bounce = o.ground_albedo > 0;
+    BounceSamples ground_samples;
+    const BounceSamples bounce =
+        ComputeBounceSamples(mesh, caster, BounceOptions(), ground_bounce ? &ground_samples : nullptr);
+    OccluderBounce from_ground;
+    if (ground_bounce) {
+      from_ground =
+          BuildOccluderBounce(ground, caster, std::move(ground_samples), to, kOccluderBounceVisibilityResolution);
+      r.occluder_albedo.setConstant(o.ground_albedo);
+    }
+    IndirectLight indirect(transport, bounce, obs, ground_bounce ? &from_ground : nullptr);
+    indirect.Update(l, r);
+    tbb::parallel_for(size_t(0), obs.records.size(), [&](size_t k) {
+      Observation& ob = obs.records[k];
+      float incoming[3];
+      indirect.Indirect(k, incoming);
+      std::vector<float> rho(size_t(r.num_lobes()) * 3);
+      r.VertexLobeWeights(ob.vertex, rho.data());
+      for (int b = 0; b < r.num_lobes(); ++b)
+        if (!transport.view_dependent(b))
+          for (int c = 0; c < 3; ++c) ob.rgb[c] += rho[b * 3 + c] * incoming[c];
+    });
+  }
   return s;
 }
 

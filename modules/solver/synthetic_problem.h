@@ -2,7 +2,8 @@
 // benchmarks: a displaced sphere resting above a ground plane, baked
 // visibility, a few materials blended over the surface, one sky-plus-sun
 // environment per photo, distant cameras around the object, and measurements
-// y = Σ_b ρ_{v,b} a_{o,b}·L_i from the transport rows. (Accuracy against the
+// y = Σ_b ρ_{v,b} a_{o,b}·L_i from the transport rows (plus the bounce of
+// solver/interreflection.h when asked). (Accuracy against the
 // independent Monte Carlo renderer is measured on synthesized photo
 // collections instead: tests/ and docs/RESULTS.md.)
 #pragma once
@@ -29,6 +30,11 @@ struct SyntheticProblemOptions {
   std::vector<std::vector<double>> coefficients;
   double min_view_cos = 0.1;           // a vertex is observed when n·view exceeds this
   double generation_keep_energy = 1.0; // Haar truncation of the rows that generate the measurements
+  // Measurements carry one bounce (IndirectLight): between the object's vertices, and from the ground of
+  // albedo `ground_albedo` (> 0; then the ground is a finer grid, 64×64 cells, so that it has vertices under the
+  // object to bounce from).
+  bool interreflection = false;
+  double ground_albedo = 0;
   int seed = 1;
 };
 
