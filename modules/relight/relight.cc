@@ -439,121 +439,166 @@ std::vector<EnvMap> LoadRelightEnvmaps(const std::vector<std::string>& paths) {
   return maps;
 }
 
-RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, const std::string& output_dir,
-                          const ShardSpec& shard) {
-  o.Check();
-  Timer total;
-  RelightSummary summary;
-  // The new lights, read before any rendering: a bad entry fails the stage at once, naming it.
-  const std::vector<EnvMap> file_maps = LoadRelightEnvmaps(o.envmaps);
-  const RecoveredModel model = LoadRecoveredModel(in.inverse_dir, in.mesh_dir);
-  const Scene scene(
-      ModelSurfaces(model.mesh, model.reflectance, model.occluders, model.OccluderAlbedo(o.occluder_albedo)),
-      JoinPath(in.inverse_dir, "reflectance.ply"));
-  RLOG_INFO("model: {} vertices, {} materials over {} basis BRDFs, {} occluder vertices; bounding sphere r = {:.4g}",
-            model.mesh.num_vertices(), model.reflectance.materials.size(), model.reflectance.basis.size(),
-            model.occluders.num_vertices(), model.radius);
+namespace {
 
-  std::vector<Job> jobs;
-  auto add_job = [&](Job job) {
-    const std::string dir = "renders/" + job.record.kind + "/";
-    if (!job.flat) job.record.exr = dir + job.record.name + ".exr";
-    job.record.png = dir + job.record.name + ".png";
-    job.record.mask = dir + job.record.name + "_mask.png";
-    jobs.push_back(std::move(job));
-  };
+// The relight.envmaps maps as named lights (file stems, made unique with _2, _3, ...), in their order.
+using NamedLights = std::vector<std::pair<std::string, std::shared_ptr<const Lighting>>>;
 
-  // (a) Re-renderings of the input photos under their recovered maps (which the export writes too).
-  const std::vector<RecoveredPhoto> photos = LoadRecoveredPhotos(o, in, scene, &summary.notes);
-  if (o.rerender) {
-    uint64_t index = 0;
-    for (const RecoveredPhoto& photo : photos) {
-      if (!photo.camera) continue;
-      Job job;
-      job.record.kind = "rerender";
-      job.record.name = Stem(photo.name);
-      job.record.view = photo.name;
-      job.record.light = "recovered:" + Stem(photo.name);
-      job.record.camera = *photo.camera;
-      Camera& camera = job.record.camera.camera;
-      const int longer = std::max(camera.width, camera.height);
-      if (o.rerender_max_size > 0 && longer > o.rerender_max_size) {
-        const double s = double(o.rerender_max_size) / longer;
-        const int w = std::max(1, int(std::lround(camera.width * s))),
-                  h = std::max(1, int(std::lround(camera.height * s)));
-        camera.Rescale(s);
-        camera.width = w;
-        camera.height = h;
-      }
-      job.lighting = EnvLighting(photo.envmap);
-      job.background = o.background;
-      job.stream = kRerender;
-      job.view_index = index++;
-      add_job(std::move(job));
+// What the rendering steps share.
+struct RelightContext {
+  const RelightOptions& options;
+  const std::string& output_dir;
+  const ShardSpec& shard;
+  const RecoveredModel& model;
+  const Scene& scene;  // the model's surfaces, as rendered
+};
+
+// Appends `job` with its file names (renders/<kind>/<name>{.exr,.png,_mask.png}; no EXR for flat images).
+void AddJob(Job job, std::vector<Job>* jobs) {
+  const std::string dir = "renders/" + job.record.kind + "/";
+  if (!job.flat) job.record.exr = dir + job.record.name + ".exr";
+  job.record.png = dir + job.record.name + ".png";
+  job.record.mask = dir + job.record.name + "_mask.png";
+  jobs->push_back(std::move(job));
+}
+
+// (a) Re-renderings of the input photos (those with a camera) under their recovered maps, at most
+// relight.rerender_max_size pixels on the longer side.
+void AddRerenderJobs(const RelightOptions& o, const std::vector<RecoveredPhoto>& photos, std::vector<Job>* jobs) {
+  uint64_t index = 0;
+  for (const RecoveredPhoto& photo : photos) {
+    if (!photo.camera) continue;
+    Job job;
+    job.record.kind = "rerender";
+    job.record.name = Stem(photo.name);
+    job.record.view = photo.name;
+    job.record.light = "recovered:" + Stem(photo.name);
+    job.record.camera = *photo.camera;
+    Camera& camera = job.record.camera.camera;
+    const int longer = std::max(camera.width, camera.height);
+    if (o.rerender_max_size > 0 && longer > o.rerender_max_size) {
+      const double s = double(o.rerender_max_size) / longer;
+      const int w = std::max(1, int(std::lround(camera.width * s))),
+                h = std::max(1, int(std::lround(camera.height * s)));
+      camera.Rescale(s);
+      camera.width = w;
+      camera.height = h;
     }
+    job.lighting = EnvLighting(photo.envmap);
+    job.background = o.background;
+    job.stream = kRerender;
+    job.view_index = index++;
+    AddJob(std::move(job), jobs);
   }
+}
 
-  // (b) Held-out views under held-out maps, in the model's frame.
+// (b) The ground truth's held-out views under its held-out maps, both brought into the model's frame; records
+// the frame relation (or why there are none) in `summary`.
+void AddHeldoutJobs(const RelightOptions& o, const RelightInputs& in, std::vector<Job>* jobs, RelightSummary* summary) {
   const std::string gt_dir = in.ingest_dir.empty() ? "" : JoinPath(in.ingest_dir, "ground_truth");
   const std::string heldout_dir = JoinPath(gt_dir, "relight");
-  summary.frame_method = "none";
-  if (o.heldout && !gt_dir.empty() && fs::is_regular_file(JoinPath(heldout_dir, "index.json"))) {
-    const GroundTruthFrame frame = RelateToGroundTruth(in.sfm_dir, gt_dir);
-    if (!frame.available) {
-      summary.notes.push_back("held-out views not rendered: " + frame.reason);
-    } else {
-      summary.frame_method = frame.method;
-      const Reconstruction views = frame.CamerasToModel(Reconstruction::Read(heldout_dir));
-      const Json index = ReadJsonFile(JoinPath(heldout_dir, "index.json"));
-      std::map<std::string, std::shared_ptr<const Lighting>> envs;
-      for (const auto& d : index.at("envmap_details")) {
-        const std::string name = d.at("name").get<std::string>();
-        const EnvMap truth = EnvMap::Load(JoinPath(heldout_dir, d.at("latlong").get<std::string>()));
-        envs[name] = EnvLighting(frame.EnvToModel(truth));
-      }
-      uint64_t k = 0;
-      for (const auto& r : index.at("renders")) {
-        const std::string view = r.at("view").get<std::string>(), env = r.at("envmap").get<std::string>();
-        const ImageRecord* image = views.FindImage(view);
-        if (image == nullptr || !envs.count(env)) {
-          RELIGHT_USER_ERROR() << "'" << JoinPath(heldout_dir, "index.json") << "' names view '" << view << "' or map '"
-                               << env << "' that its cameras/envmaps do not have; regenerate the "
-                               << "ground truth";
-        }
-        Job job;
-        job.record.kind = "heldout";
-        job.record.name = view + "__" + env;
-        job.record.view = view;
-        job.record.light = "heldout:" + env;
-        job.record.camera = {view, views.cameras.at(image->camera_id), *image};
-        job.lighting = envs[env];
-        job.background = true;
-        job.stream = kHeldout;
-        job.view_index = k++;
-        add_job(std::move(job));
-      }
-    }
-  } else if (o.heldout) {
-    summary.notes.push_back("no held-out views: the ground truth has no relight/index.json");
+  summary->frame_method = "none";
+  if (!(o.heldout && !gt_dir.empty() && fs::is_regular_file(JoinPath(heldout_dir, "index.json")))) {
+    if (o.heldout) summary->notes.push_back("no held-out views: the ground truth has no relight/index.json");
+    return;
   }
+  const GroundTruthFrame frame = RelateToGroundTruth(in.sfm_dir, gt_dir);
+  if (!frame.available) {
+    summary->notes.push_back("held-out views not rendered: " + frame.reason);
+    return;
+  }
+  summary->frame_method = frame.method;
+  const Reconstruction views = frame.CamerasToModel(Reconstruction::Read(heldout_dir));
+  const Json index = ReadJsonFile(JoinPath(heldout_dir, "index.json"));
+  std::map<std::string, std::shared_ptr<const Lighting>> envs;
+  for (const auto& d : index.at("envmap_details")) {
+    const std::string name = d.at("name").get<std::string>();
+    const EnvMap truth = EnvMap::Load(JoinPath(heldout_dir, d.at("latlong").get<std::string>()));
+    envs[name] = EnvLighting(frame.EnvToModel(truth));
+  }
+  uint64_t k = 0;
+  for (const auto& r : index.at("renders")) {
+    const std::string view = r.at("view").get<std::string>(), env = r.at("envmap").get<std::string>();
+    const ImageRecord* image = views.FindImage(view);
+    if (image == nullptr || !envs.count(env)) {
+      RELIGHT_USER_ERROR() << "'" << JoinPath(heldout_dir, "index.json") << "' names view '" << view << "' or map '"
+                           << env << "' that its cameras/envmaps do not have; regenerate the "
+                           << "ground truth";
+    }
+    Job job;
+    job.record.kind = "heldout";
+    job.record.name = view + "__" + env;
+    job.record.view = view;
+    job.record.light = "heldout:" + env;
+    job.record.camera = {view, views.cameras.at(image->camera_id), *image};
+    job.lighting = envs[env];
+    job.background = true;
+    job.stream = kHeldout;
+    job.view_index = k++;
+    AddJob(std::move(job), jobs);
+  }
+}
 
-  // (c) New orbit views under new lights, and flat albedo / material images.
+// The relight.envmaps maps named by their file stems (a repeated stem gets _2, _3, ...).
+NamedLights FileLights(const std::vector<std::string>& paths, const std::vector<EnvMap>& file_maps) {
+  NamedLights file_lights;
+  std::set<std::string> used;
+  for (size_t m = 0; m < paths.size(); ++m) {
+    const std::string& path = paths[m];
+    std::string name = Stem(path);
+    for (int k = 2; used.count(name); ++k) name = Stem(path) + "_" + std::to_string(k);
+    used.insert(name);
+    file_lights.emplace_back(name, EnvLighting(file_maps[m]));
+  }
+  return file_lights;
+}
+
+// The directional light of the new views (relight.directional_*) plus the dim uniform sky.
+std::shared_ptr<const Lighting> DirectionalLighting(const RelightOptions& o) {
+  Lighting l = DeltaLighting(o.ambient_fraction);
+  const double az = (o.view_azimuth_deg + o.directional_azimuth_deg) * M_PI / 180;
+  const double el = o.directional_elevation_deg * M_PI / 180;
+  l.directional.push_back({Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)),
+                           Eigen::Vector3d::Ones()});
+  return std::make_shared<const Lighting>(std::move(l));
+}
+
+// A point light above and beside camera `view` plus the dim uniform sky.
+std::shared_ptr<const Lighting> PointLighting(const RelightOptions& o, const RecoveredModel& model,
+                                              const RenderCamera& view) {
+  Lighting l = DeltaLighting(o.ambient_fraction);
+  const Eigen::Vector3d c = view.pose.ProjectionCenter();
+  const double d = (c - model.center).norm();
+  const Eigen::Vector3d right = view.pose.CamFromWorldRotation().row(0).transpose();
+  const Eigen::Vector3d position = c + 0.35 * d * right + 0.35 * d * Eigen::Vector3d::UnitZ();
+  // Irradiance 1 on a surface at the object's centre facing the light.
+  const double r2 = (position - model.center).squaredNorm();
+  l.points.push_back({position, Eigen::Vector3d::Constant(r2)});
+  return std::make_shared<const Lighting>(std::move(l));
+}
+
+// A flat image of per-vertex colours `rgb` (no lighting) from camera `view`.
+Job FlatJob(const std::string& kind, const RenderCamera& view, std::vector<Eigen::Vector3f> rgb) {
+  Job job;
+  job.record.kind = kind;
+  job.record.name = view.name;
+  job.record.view = view.name;
+  job.record.light = "none";
+  job.record.camera = view;
+  job.flat = true;
+  job.flat_rgb = std::move(rgb);
+  return job;
+}
+
+// (c) New orbit views under the new lights (the file maps, a directional and a point light), and flat albedo
+// and dominant-material images from them.
+void AddNovelJobs(const RelightOptions& o, const RecoveredModel& model, const NamedLights& file_lights,
+                  std::vector<Job>* jobs) {
   std::vector<RenderCamera> orbit;
   for (int v = 0; v < o.views; ++v) {
     orbit.push_back(OrbitCamera("view_" + std::to_string(v), model.center, model.radius,
                                 o.view_azimuth_deg + 360.0 * v / o.views, o.view_elevation_deg, o.image_size, o.fov_deg,
                                 o.fill));
-  }
-  std::vector<std::pair<std::string, std::shared_ptr<const Lighting>>> file_lights;
-  {
-    std::set<std::string> used;
-    for (size_t m = 0; m < o.envmaps.size(); ++m) {
-      const std::string& path = o.envmaps[m];
-      std::string name = Stem(path);
-      for (int k = 2; used.count(name); ++k) name = Stem(path) + "_" + std::to_string(k);
-      used.insert(name);
-      file_lights.emplace_back(name, EnvLighting(file_maps[m]));
-    }
   }
   uint64_t novel_index = 0;
   for (const RenderCamera& view : orbit) {
@@ -568,248 +613,307 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
       job.background = o.background;
       job.stream = kNovel;
       job.view_index = novel_index++;
-      add_job(std::move(job));
+      AddJob(std::move(job), jobs);
     };
     for (const auto& [name, l] : file_lights) add_novel(name, "envmap:" + name, l);
-    if (o.directional_light) {
-      Lighting l = DeltaLighting(o.ambient_fraction);
-      const double az = (o.view_azimuth_deg + o.directional_azimuth_deg) * M_PI / 180;
-      const double el = o.directional_elevation_deg * M_PI / 180;
-      l.directional.push_back({Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)),
-                               Eigen::Vector3d::Ones()});
-      add_novel("directional", "directional", std::make_shared<const Lighting>(std::move(l)));
-    }
-    if (o.point_light) {
-      Lighting l = DeltaLighting(o.ambient_fraction);
-      const Eigen::Vector3d c = view.pose.ProjectionCenter();
-      const double d = (c - model.center).norm();
-      const Eigen::Vector3d right = view.pose.CamFromWorldRotation().row(0).transpose();
-      const Eigen::Vector3d position = c + 0.35 * d * right + 0.35 * d * Eigen::Vector3d::UnitZ();
-      // Irradiance 1 on a surface at the object's centre facing the light.
-      const double r2 = (position - model.center).squaredNorm();
-      l.points.push_back({position, Eigen::Vector3d::Constant(r2)});
-      add_novel("point", "point", std::make_shared<const Lighting>(std::move(l)));
-    }
+    if (o.directional_light) add_novel("directional", "directional", DirectionalLighting(o));
+    if (o.point_light) add_novel("point", "point", PointLighting(o, model, view));
     const std::vector<float>* ar = model.mesh.FindProperty("albedo_r");
     const std::vector<float>* ag = model.mesh.FindProperty("albedo_g");
     const std::vector<float>* ab = model.mesh.FindProperty("albedo_b");
     if (ar && ag && ab) {
-      Job job;
-      job.record.kind = "albedo";
-      job.record.name = view.name;
-      job.record.view = view.name;
-      job.record.light = "none";
-      job.record.camera = view;
-      job.flat = true;
-      for (size_t v = 0; v < model.mesh.num_vertices(); ++v) job.flat_rgb.emplace_back((*ar)[v], (*ag)[v], (*ab)[v]);
-      add_job(std::move(job));
+      std::vector<Eigen::Vector3f> albedo;
+      for (size_t v = 0; v < model.mesh.num_vertices(); ++v) albedo.emplace_back((*ar)[v], (*ag)[v], (*ab)[v]);
+      AddJob(FlatJob("albedo", view, std::move(albedo)), jobs);
     }
-    Job job;
-    job.record.kind = "material";
-    job.record.name = view.name;
-    job.record.view = view.name;
-    job.record.light = "none";
-    job.record.camera = view;
-    job.flat = true;
-    job.flat_rgb = DominantMaterialColors(model.mesh, int(model.reflectance.materials.size()));
-    add_job(std::move(job));
+    AddJob(FlatJob("material", view, DominantMaterialColors(model.mesh, int(model.reflectance.materials.size()))),
+           jobs);
   }
+}
 
-  // (d) Turntable.
-  if (o.turntable_frames > 0) {
-    std::shared_ptr<const Lighting> light;
-    std::string light_name;
-    if (o.turntable_light == "first_envmap" && !file_lights.empty()) {
-      light = file_lights[0].second;
-      light_name = "envmap:" + file_lights[0].first;
-    } else {
-      for (const auto& j : jobs)
-        if (j.record.kind == "rerender") {
-          light = j.lighting;
-          light_name = j.record.light;
-          break;
-        }
-    }
-    if (!light) {
-      summary.notes.push_back(
-          "no turntable: no environment map (relight.envmaps is empty and no photo was re-rendered)");
-    } else {
-      for (int f = 0; f < o.turntable_frames; ++f) {
-        char name[32];
-        std::snprintf(name, sizeof(name), "frame_%03d", f);
-        Job job;
-        job.record.kind = "turntable";
-        job.record.name = name;
-        job.record.view = name;
-        job.record.light = light_name;
-        job.record.camera =
-            OrbitCamera(name, model.center, model.radius, o.view_azimuth_deg + 360.0 * f / o.turntable_frames,
-                        o.view_elevation_deg, o.turntable_size, o.fov_deg, o.fill);
-        job.lighting = light;
-        job.background = o.background;
-        job.stream = kTurntable;
-        job.view_index = uint64_t(f);
-        job.shared_exposure = true;
-        add_job(std::move(job));
-      }
-    }
-  }
-
-  // The export for Blender and other tools (relight/gltf_export.h): cheap, rewritten on every whole run.
-  if (!shard.active()) summary.exported = WriteExport(output_dir, model.mesh, model.reflectance, photos);
-  if (!shard.active()) RLOG_INFO("export: {} ({} vertices, {} triangles, {} primitives), {} environment maps, albedo scale {:.4g}",
-            summary.exported.model, summary.exported.vertices, summary.exported.triangles, summary.exported.primitives,
-            summary.exported.envmaps.size(), summary.exported.albedo_scale);
-
-  // The visibility maps (transport renderer and viewer) and the resolution of the recovered maps.
-  const std::string visibility_path = in.visibility_dir.empty() ? "" : JoinPath(in.visibility_dir, "visibility.bin");
-  const bool have_visibility = !visibility_path.empty() && fs::is_regular_file(visibility_path);
-  VisibilityData visibility;
-  if (have_visibility) visibility = ReadVisibility(visibility_path);
-  // The interactive viewer (relight/viewer_export.h), under each photo's recovered map and each new map.
-  if (shard.active()) {
-    // a shard renders only
-  } else if (have_visibility) {
-    std::vector<std::pair<std::string, EnvMap>> maps;
-    for (const RecoveredPhoto& photo : photos) maps.emplace_back(Stem(photo.name), photo.envmap);
-    for (size_t m = 0; m < file_lights.size(); ++m) maps.emplace_back(file_lights[m].first, file_maps[m]);
-    ViewerOptions vo;
-    vo.env_resolution = model.env_resolution;
-    vo.tonemap_percentile = o.tonemap_percentile;
-    const ViewerExport viewer = WriteViewerAssets(JoinPath(output_dir, "export/viewer"), model, visibility, maps, vo);
-    summary.viewer = "export/viewer/viewer.html";
-    RLOG_INFO("viewer: {}", viewer.BriefReport());
+// (d) The turntable's frames, on an orbit under relight.turntable_light (or a note in `summary` when there is no
+// map to light it with).
+void AddTurntableJobs(const RelightOptions& o, const RecoveredModel& model, const NamedLights& file_lights,
+                      std::vector<Job>* jobs, RelightSummary* summary) {
+  std::shared_ptr<const Lighting> light;
+  std::string light_name;
+  if (o.turntable_light == "first_envmap" && !file_lights.empty()) {
+    light = file_lights[0].second;
+    light_name = "envmap:" + file_lights[0].first;
   } else {
-    summary.notes.push_back("no interactive viewer: the visibility stage's maps were not given");
+    for (const auto& j : *jobs)
+      if (j.record.kind == "rerender") {
+        light = j.lighting;
+        light_name = j.record.light;
+        break;
+      }
   }
+  if (!light) {
+    summary->notes.push_back(
+        "no turntable: no environment map (relight.envmaps is empty and no photo was re-rendered)");
+    return;
+  }
+  for (int f = 0; f < o.turntable_frames; ++f) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "frame_%03d", f);
+    Job job;
+    job.record.kind = "turntable";
+    job.record.name = name;
+    job.record.view = name;
+    job.record.light = light_name;
+    job.record.camera =
+        OrbitCamera(name, model.center, model.radius, o.view_azimuth_deg + 360.0 * f / o.turntable_frames,
+                    o.view_elevation_deg, o.turntable_size, o.fov_deg, o.fill);
+    job.lighting = light;
+    job.background = o.background;
+    job.stream = kTurntable;
+    job.view_index = uint64_t(f);
+    job.shared_exposure = true;
+    AddJob(std::move(job), jobs);
+  }
+}
 
-  // Render what is missing.
-  for (const auto& dir : {"rerender", "heldout", "novel", "albedo", "material", "turntable"})
-    EnsureDir(JoinPath(output_dir, std::string("renders/") + dir));
-  // A rendered view's radiance and mask are its result; its PNG is written from them (below) when missing.
-  auto done = [&](const Job& job) {
-    return (job.flat || Exists(JoinPath(output_dir, job.record.exr))) && Exists(JoinPath(output_dir, job.record.mask));
-  };
-  // A shard renders the radiance of its own views (every shard-th job); the whole run that follows writes
-  // every PNG, so a shared exposure (turntable) is the same as in one run.
-  auto skipped = [&](size_t k) { return shard.active() && (jobs[k].flat || !shard.Owns(k)); };
-  RenderOptions base;
+// The visibility stage's maps (transport renderer and viewer).
+struct VisibilityMaps {
+  std::string path;        // <visibility>/visibility.bin; empty without the stage
+  bool available = false;  // the file exists (and `data` holds it)
+  VisibilityData data;
+};
+
+// Reads <visibility_dir>/visibility.bin when it exists.
+VisibilityMaps LoadVisibilityMaps(const std::string& visibility_dir) {
+  VisibilityMaps maps;
+  maps.path = visibility_dir.empty() ? "" : JoinPath(visibility_dir, "visibility.bin");
+  maps.available = !maps.path.empty() && fs::is_regular_file(maps.path);
+  if (maps.available) maps.data = ReadVisibility(maps.path);
+  return maps;
+}
+
+// The interactive viewer (relight/viewer_export.h), under each photo's recovered map and each new map; a note in
+// `summary` without the visibility maps.
+void WriteViewer(const RelightContext& ctx, const std::vector<RecoveredPhoto>& photos, const NamedLights& file_lights,
+                 const std::vector<EnvMap>& file_maps, const VisibilityMaps& visibility, RelightSummary* summary) {
+  if (!visibility.available) {
+    summary->notes.push_back("no interactive viewer: the visibility stage's maps were not given");
+    return;
+  }
+  std::vector<std::pair<std::string, EnvMap>> maps;
+  for (const RecoveredPhoto& photo : photos) maps.emplace_back(Stem(photo.name), photo.envmap);
+  for (size_t m = 0; m < file_lights.size(); ++m) maps.emplace_back(file_lights[m].first, file_maps[m]);
+  ViewerOptions vo;
+  vo.env_resolution = ctx.model.env_resolution;
+  vo.tonemap_percentile = ctx.options.tonemap_percentile;
+  const ViewerExport viewer =
+      WriteViewerAssets(JoinPath(ctx.output_dir, "export/viewer"), ctx.model, visibility.data, maps, vo);
+  summary->viewer = "export/viewer/viewer.html";
+  RLOG_INFO("viewer: {}", viewer.BriefReport());
+}
+
+// A rendered view's radiance and mask are its result; its PNG is written from them when missing.
+bool JobDone(const Job& job, const std::string& output_dir) {
+  return (job.flat || Exists(JoinPath(output_dir, job.record.exr))) && Exists(JoinPath(output_dir, job.record.mask));
+}
+
+// A shard renders the radiance of its own views (every shard-th job); the whole run that follows writes
+// every PNG, so a shared exposure (turntable) is the same as in one run.
+bool JobSkipped(const std::vector<Job>& jobs, size_t k, const ShardSpec& shard) {
+  return shard.active() && (jobs[k].flat || !shard.Owns(k));
+}
+
+// The renderer of the jobs still to render: the transport renderer or the Monte Carlo options.
+struct JobRenderer {
+  RenderOptions monte_carlo;                     // relight's samples; interreflection as the model was solved
+  TransportRenderOptions transport_options;      // relight's pixel samples
+  std::unique_ptr<TransportRenderer> transport;  // null: render with `monte_carlo`
+  std::map<const Lighting*, size_t> last_use;    // the last job of each light (the transport renderer's cache)
+  int64_t tiles = 0;                             // work units of the jobs to render (progress)
+};
+
+// Sets up the renderer of the jobs that are neither done nor another shard's (relight.renderer).
+JobRenderer PrepareRenderer(const RelightContext& ctx, const VisibilityMaps& visibility, const std::vector<Job>& jobs) {
+  const RelightOptions& o = ctx.options;
+  const RecoveredModel& model = ctx.model;
+  JobRenderer renderer;
+  RenderOptions& base = renderer.monte_carlo;
   base.pixel_samples_per_axis = o.pixel_samples_per_axis;
   base.light_samples = o.light_samples;
   base.brdf_samples = o.brdf_samples;
-  TransportRenderOptions transport_options;
-  transport_options.pixel_samples_per_axis = o.pixel_samples_per_axis;
+  renderer.transport_options.pixel_samples_per_axis = o.pixel_samples_per_axis;
   const bool use_transport = o.renderer == "transport";
-  std::unique_ptr<TransportRenderer> transport;
   // The last job of each light: what the transport renderer keeps for it is dropped after it.
-  std::map<const Lighting*, size_t> last_use;
-  int64_t tiles = 0;
   for (size_t k = 0; k < jobs.size(); ++k) {
     const Job& job = jobs[k];
-    if (job.flat || done(job) || skipped(k)) continue;
-    tiles += use_transport ? TransportRenderer::NumBands(job.record.camera.camera, transport_options)
-                           : NumTiles(job.record.camera.camera, base);
-    last_use[job.lighting.get()] = k;
+    if (job.flat || JobDone(job, ctx.output_dir) || JobSkipped(jobs, k, ctx.shard)) continue;
+    renderer.tiles += use_transport ? TransportRenderer::NumBands(job.record.camera.camera, renderer.transport_options)
+                                    : NumTiles(job.record.camera.camera, base);
+    renderer.last_use[job.lighting.get()] = k;
   }
-  if (use_transport && tiles > 0) {
-    if (!have_visibility) {
+  if (use_transport && renderer.tiles > 0) {
+    if (!visibility.available) {
       RELIGHT_USER_ERROR() << "relight.renderer: transport needs the visibility stage's maps"
-                           << (visibility_path.empty() ? "" : " ('" + visibility_path + "' is missing)")
+                           << (visibility.path.empty() ? "" : " ('" + visibility.path + "' is missing)")
                            << "; run the visibility stage (or set relight.renderer: monte_carlo)";
     }
-    transport = std::make_unique<TransportRenderer>(scene, visibility, model.env_resolution);
+    renderer.transport = std::make_unique<TransportRenderer>(ctx.scene, visibility.data, model.env_resolution);
     RLOG_INFO("transport renderer: {}x{} visibility maps, light filtered to {}x{} octahedral texels",
-              visibility.resolution, visibility.resolution, model.env_resolution, model.env_resolution);
+              visibility.data.resolution, visibility.data.resolution, model.env_resolution, model.env_resolution);
   }
-  if (tiles > 0) {
-    EnableModelInterreflection(model, transport.get(), transport ? nullptr : &base);
-    if (!transport && base.interreflection)
+  if (renderer.tiles > 0) {
+    EnableModelInterreflection(model, renderer.transport.get(), renderer.transport ? nullptr : &base);
+    if (!renderer.transport && base.interreflection)
       RLOG_INFO("interreflection on (the inverse stage solved with it): the Monte Carlo renderer adds one bounce");
   }
-  double turntable_exposure = -1;
-  {
-    Progress progress("relight renders", std::max<int64_t>(tiles, 1));
-    for (size_t k = 0; k < jobs.size(); ++k) {
-      if (skipped(k)) continue;
-      Job& job = jobs[k];
-      RenderRecord& r = job.record;
-      const std::string exr = JoinPath(output_dir, r.exr), png = JoinPath(output_dir, r.png),
-                        mask_path = JoinPath(output_dir, r.mask);
-      if (job.flat) {
-        Image mask;
-        const Image rgb = RenderVertexColors(scene.caster(), 0, job.flat_rgb, r.camera.camera, r.camera.pose,
-                                             Eigen::Vector3f::Constant(0.18f), &mask);
-        // Albedo is shown as is (1 = white) unless it exceeds 1 (gauge), then like a render.
-        r.exposure = r.kind == "albedo" ? std::min(1.0, PercentileExposure(rgb, &mask, 99.5)) : 1.0;
-        WritePng(mask_path, mask);
-        WritePng(png, ToneMapSrgb(rgb, r.exposure));
-        continue;
-      }
-      Image radiance, mask;
-      if (done(job)) {
-        radiance = ReadImage(exr);
-        mask = ReadMask(mask_path);
-        ++summary.reused;
-      } else {
-        RenderedView view;
-        if (transport) {
-          TransportRenderOptions to = transport_options;
-          to.background = job.background;
-          view = transport->Render(*job.lighting, r.camera.camera, r.camera.pose, to, &progress);
-          if (last_use[job.lighting.get()] == k) transport->Forget(*job.lighting);
-        } else {
-          RenderOptions ro = base;
-          if (r.kind == "heldout" || r.kind == "rerender") {  // scored by evaluate
-            ro.light_samples = std::max(ro.light_samples, o.scored_samples);
-            ro.brdf_samples = std::max(ro.brdf_samples, o.scored_samples);
-          }
-          ro.background = job.background;
-          ro.seed = MixSeed(uint64_t(o.seed), job.stream);
-          view = RenderView(scene, *job.lighting, r.camera.camera, r.camera.pose, ro, job.view_index, &progress);
-        }
-        radiance = view.radiance;
-        mask = view.mask;
-        r.seconds = view.seconds;
-        WriteExr(exr, radiance);
-        WritePng(mask_path, mask);
-        ++summary.rendered;
-      }
-      if (shard.active()) continue;
-      double exposure = PercentileExposure(radiance, CountMask(mask) > 0 ? &mask : nullptr, o.tonemap_percentile);
-      if (job.shared_exposure) {
-        if (turntable_exposure < 0) turntable_exposure = exposure;
-        exposure = turntable_exposure;
-      }
-      r.exposure = exposure;
-      if (!Exists(png) || r.seconds > 0) WritePng(png, ToneMapSrgb(radiance, exposure));
-      LogFileOnly(fmt::format("{}/{}: {}x{}, light {}, {:.2f} s", r.kind, r.name, r.camera.camera.width,
-                              r.camera.camera.height, r.light, r.seconds));
-    }
+  return renderer;
+}
+
+// Job `k`'s radiance and mask, rendered.
+RenderedView RenderJob(const RelightContext& ctx, size_t k, const Job& job, JobRenderer* renderer, Progress* progress) {
+  const RelightOptions& o = ctx.options;
+  const RenderRecord& r = job.record;
+  if (renderer->transport) {
+    TransportRenderOptions to = renderer->transport_options;
+    to.background = job.background;
+    RenderedView view = renderer->transport->Render(*job.lighting, r.camera.camera, r.camera.pose, to, progress);
+    if (renderer->last_use[job.lighting.get()] == k) renderer->transport->Forget(*job.lighting);
+    return view;
   }
+  RenderOptions ro = renderer->monte_carlo;
+  if (r.kind == "heldout" || r.kind == "rerender") {  // scored by evaluate
+    ro.light_samples = std::max(ro.light_samples, o.scored_samples);
+    ro.brdf_samples = std::max(ro.brdf_samples, o.scored_samples);
+  }
+  ro.background = job.background;
+  ro.seed = MixSeed(uint64_t(o.seed), job.stream);
+  return RenderView(ctx.scene, *job.lighting, r.camera.camera, r.camera.pose, ro, job.view_index, progress);
+}
 
-  if (shard.active()) return summary;  // the whole run that follows writes the PNGs, animation and summary
+// Writes flat image `r` (per-vertex colours `rgb`) and its mask.
+void WriteFlatImage(const RelightContext& ctx, const std::vector<Eigen::Vector3f>& rgb, RenderRecord* r) {
+  Image mask;
+  const Image image = RenderVertexColors(ctx.scene.caster(), 0, rgb, r->camera.camera, r->camera.pose,
+                                         Eigen::Vector3f::Constant(0.18f), &mask);
+  // Albedo is shown as is (1 = white) unless it exceeds 1 (gauge), then like a render.
+  r->exposure = r->kind == "albedo" ? std::min(1.0, PercentileExposure(image, &mask, 99.5)) : 1.0;
+  WritePng(JoinPath(ctx.output_dir, r->mask), mask);
+  WritePng(JoinPath(ctx.output_dir, r->png), ToneMapSrgb(image, r->exposure));
+}
 
-  // Turntable animation.
+// Renders what is missing (a shard: only the radiance and masks of its views), reads back what an earlier run
+// rendered, and writes the PNGs; counts both in `summary`.
+void RenderJobs(const RelightContext& ctx, const VisibilityMaps& visibility, std::vector<Job>* jobs,
+                RelightSummary* summary) {
+  const RelightOptions& o = ctx.options;
+  for (const auto& dir : {"rerender", "heldout", "novel", "albedo", "material", "turntable"})
+    EnsureDir(JoinPath(ctx.output_dir, std::string("renders/") + dir));
+  JobRenderer renderer = PrepareRenderer(ctx, visibility, *jobs);
+  double turntable_exposure = -1;
+  Progress progress("relight renders", std::max<int64_t>(renderer.tiles, 1));
+  for (size_t k = 0; k < jobs->size(); ++k) {
+    if (JobSkipped(*jobs, k, ctx.shard)) continue;
+    Job& job = (*jobs)[k];
+    RenderRecord& r = job.record;
+    const std::string exr = JoinPath(ctx.output_dir, r.exr), png = JoinPath(ctx.output_dir, r.png),
+                      mask_path = JoinPath(ctx.output_dir, r.mask);
+    if (job.flat) {
+      WriteFlatImage(ctx, job.flat_rgb, &r);
+      continue;
+    }
+    Image radiance, mask;
+    if (JobDone(job, ctx.output_dir)) {
+      radiance = ReadImage(exr);
+      mask = ReadMask(mask_path);
+      ++summary->reused;
+    } else {
+      const RenderedView view = RenderJob(ctx, k, job, &renderer, &progress);
+      radiance = view.radiance;
+      mask = view.mask;
+      r.seconds = view.seconds;
+      WriteExr(exr, radiance);
+      WritePng(mask_path, mask);
+      ++summary->rendered;
+    }
+    if (ctx.shard.active()) continue;
+    double exposure = PercentileExposure(radiance, CountMask(mask) > 0 ? &mask : nullptr, o.tonemap_percentile);
+    if (job.shared_exposure) {
+      if (turntable_exposure < 0) turntable_exposure = exposure;
+      exposure = turntable_exposure;
+    }
+    r.exposure = exposure;
+    if (!Exists(png) || r.seconds > 0) WritePng(png, ToneMapSrgb(radiance, exposure));
+    LogFileOnly(fmt::format("{}/{}: {}x{}, light {}, {:.2f} s", r.kind, r.name, r.camera.camera.width,
+                            r.camera.camera.height, r.light, r.seconds));
+  }
+}
+
+// The turntable's PNG frames as an animated GIF (renders/turntable/turntable.gif), recorded in `summary`, or a
+// note when OpenImageIO cannot write one.
+void WriteTurntableGif(const RelightOptions& o, const std::string& output_dir, const std::vector<Job>& jobs,
+                       RelightSummary* summary) {
   std::vector<Image> frames;
   for (const Job& job : jobs)
     if (job.record.kind == "turntable") frames.push_back(ReadImage(JoinPath(output_dir, job.record.png)));
-  if (!frames.empty()) {
-    for (auto& f : frames)
-      if (f.channels != 3) {
-        Image rgb(f.width, f.height, 3);
-        for (int y = 0; y < f.height; ++y)
-          for (int x = 0; x < f.width; ++x)
-            for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = f.at(x, y, std::min(c, f.channels - 1));
-        f = rgb;
-      }
-    const std::string gif = "renders/turntable/turntable.gif";
-    if (WriteAnimatedGif(JoinPath(output_dir, gif), frames, o.turntable_fps)) {
-      summary.turntable_gif = gif;
-    } else {
-      summary.notes.push_back("OpenImageIO cannot write animated GIFs here: the turntable is its PNG frames only");
+  if (frames.empty()) return;
+  for (auto& f : frames)
+    if (f.channels != 3) {
+      Image rgb(f.width, f.height, 3);
+      for (int y = 0; y < f.height; ++y)
+        for (int x = 0; x < f.width; ++x)
+          for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = f.at(x, y, std::min(c, f.channels - 1));
+      f = rgb;
     }
+  const std::string gif = "renders/turntable/turntable.gif";
+  if (WriteAnimatedGif(JoinPath(output_dir, gif), frames, o.turntable_fps)) {
+    summary->turntable_gif = gif;
+  } else {
+    summary->notes.push_back("OpenImageIO cannot write animated GIFs here: the turntable is its PNG frames only");
   }
+}
 
+}  // namespace
+
+RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, const std::string& output_dir,
+                          const ShardSpec& shard) {
+  o.Check();
+  Timer total;
+  RelightSummary summary;
+  // The new lights, read before any rendering: a bad entry fails the stage at once, naming it.
+  const std::vector<EnvMap> file_maps = LoadRelightEnvmaps(o.envmaps);
+  const RecoveredModel model = LoadRecoveredModel(in.inverse_dir, in.mesh_dir);
+  const Scene scene(
+      ModelSurfaces(model.mesh, model.reflectance, model.occluders, model.OccluderAlbedo(o.occluder_albedo)),
+      JoinPath(in.inverse_dir, "reflectance.ply"));
+  RLOG_INFO("model: {} vertices, {} materials over {} basis BRDFs, {} occluder vertices; bounding sphere r = {:.4g}",
+            model.mesh.num_vertices(), model.reflectance.materials.size(), model.reflectance.basis.size(),
+            model.occluders.num_vertices(), model.radius);
+  const RelightContext ctx{o, output_dir, shard, model, scene};
+
+  // The images to make, in this order (their random streams depend on it).
+  std::vector<Job> jobs;
+  // (a) Re-renderings of the input photos under their recovered maps (which the export writes too).
+  const std::vector<RecoveredPhoto> photos = LoadRecoveredPhotos(o, in, scene, &summary.notes);
+  if (o.rerender) AddRerenderJobs(o, photos, &jobs);
+  // (b) Held-out views under held-out maps, in the model's frame.
+  AddHeldoutJobs(o, in, &jobs, &summary);
+  // (c) New orbit views under new lights, and flat albedo / material images.
+  const NamedLights file_lights = FileLights(o.envmaps, file_maps);
+  AddNovelJobs(o, model, file_lights, &jobs);
+  // (d) Turntable.
+  if (o.turntable_frames > 0) AddTurntableJobs(o, model, file_lights, &jobs, &summary);
+
+  // The export for Blender and other tools (relight/gltf_export.h): cheap, rewritten on every whole run.
+  if (!shard.active()) {
+    summary.exported = WriteExport(output_dir, model.mesh, model.reflectance, photos);
+    RLOG_INFO("export: {} ({} vertices, {} triangles, {} primitives), {} environment maps, albedo scale {:.4g}",
+              summary.exported.model, summary.exported.vertices, summary.exported.triangles,
+              summary.exported.primitives, summary.exported.envmaps.size(), summary.exported.albedo_scale);
+  }
+  const VisibilityMaps visibility = LoadVisibilityMaps(in.visibility_dir);
+  if (!shard.active()) WriteViewer(ctx, photos, file_lights, file_maps, visibility, &summary);  // a shard renders only
+
+  RenderJobs(ctx, visibility, &jobs, &summary);
+  if (shard.active()) return summary;  // the whole run that follows writes the PNGs, animation and summary
+
+  WriteTurntableGif(o, output_dir, jobs, &summary);
   for (auto& job : jobs) summary.renders.push_back(std::move(job.record));
   summary.seconds = total.Seconds();
   WriteJsonAtomic(JoinPath(output_dir, "relight_summary.json"), summary.ToJson());
