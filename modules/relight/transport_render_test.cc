@@ -139,39 +139,12 @@ TEST(TransportRender, ImageAgreesWithMonteCarloAndRerendersAreReused) {
       for (int c = 0; c < 3; ++c) ASSERT_EQ(again.radiance.at(x, y, c), got.radiance.at(x, y, c));
 }
 
-// A hemispherical bowl: the lower half of a sphere of radius 0.5 around (0, 0, 0.5), seen from inside (normals
-// radial, pointing in), `rings` rings of latitude up to the rim at the equator and `segments` around, Lambertian
-// albedo 0.8. Inside a sphere every surface element sees every other with the same form factor, dA / (4π R²),
-// so the bowl has closed forms: each point sees the opening (the upper half, the sky) with a cosine-weighted
-// share f = 1/2 and the bowl with 1 - f; under a uniform sky L the direct radiance is ρ f L everywhere and one
-// bounce adds ρ (1 - f) times it.
+// A white hemispherical bowl (render_testing::Bowl), Lambertian albedo 0.8. Inside a sphere every surface
+// element sees every other with the same form factor, dA / (4π R²), so the bowl has closed forms: each point
+// sees the opening (the upper half, the sky) with a cosine-weighted share f = 1/2 and the bowl with 1 - f;
+// under a uniform sky L the direct radiance is ρ f L everywhere and one bounce adds ρ (1 - f) times it.
 TestScene MakeBowl(int rings, int segments) {
-  const Eigen::Vector3f center(0, 0, 0.5f);
-  const float radius = 0.5f;
-  TriangleMesh bowl;
-  bowl.vertices.push_back(center - Eigen::Vector3f(0, 0, radius));  // the bottom pole
-  for (int i = 1; i <= rings; ++i) {
-    const float polar = float(M_PI) * (1.0f - 0.5f * i / rings);  // from the bottom (π) to the rim (π/2)
-    for (int j = 0; j < segments; ++j) {
-      const float az = 2 * float(M_PI) * j / segments;
-      bowl.vertices.push_back(center + radius * Eigen::Vector3f(std::sin(polar) * std::cos(az),
-                                                                std::sin(polar) * std::sin(az), std::cos(polar)));
-    }
-  }
-  for (const Eigen::Vector3f& p : bowl.vertices) bowl.normals.push_back((center - p).normalized());
-  auto ring = [&](int i, int j) { return 1 + (i - 1) * segments + (j % segments); };
-  for (int j = 0; j < segments; ++j) bowl.faces.emplace_back(0, ring(1, j), ring(1, j + 1));
-  for (int i = 1; i < rings; ++i)
-    for (int j = 0; j < segments; ++j) {
-      bowl.faces.emplace_back(ring(i, j), ring(i + 1, j), ring(i + 1, j + 1));
-      bowl.faces.emplace_back(ring(i, j), ring(i + 1, j + 1), ring(i, j + 1));
-    }
-  // Winding with the normals (front faces inside).
-  for (Eigen::Vector3i& f : bowl.faces) {
-    const Eigen::Vector3f n =
-        (bowl.vertices[f[1]] - bowl.vertices[f[0]]).cross(bowl.vertices[f[2]] - bowl.vertices[f[0]]);
-    if (n.dot(bowl.normals[f[0]] + bowl.normals[f[1]] + bowl.normals[f[2]]) < 0) std::swap(f[1], f[2]);
-  }
+  const TriangleMesh bowl = render_testing::Bowl(rings, segments);
   TestScene t;
   t.scene = std::make_unique<Scene>(
       ModelSurfaces(bowl, LambertianModel(Eigen::Vector3d::Constant(0.8)), TriangleMesh(), 0.35), "bowl");

@@ -12,10 +12,12 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
+#include "geometry/raycaster.h"
 #include "observe/observations.h"
 #include "render/scene.h"
 #include "solver/transport.h"
 #include "sphere/octahedral.h"
+#include "visibility/bounce.h"
 
 namespace relight {
 namespace {
@@ -259,6 +261,8 @@ function prepareLight(map, theta) {
   for (let ch = 0; ch < 3; ++ch) { haarForward(plane[ch]); for (let t = 0; t < n * n; ++t) lightHaar[3 * t + ch] = plane[ch][t]; }
 }
 const color = new Float32Array(nv * 3), g = new Float64Array(3);
+const bFirst = M.bounce_pairs > 0 ? buf('bounce_first') : null, bSource = bFirst && buf('bounce_source'), bWeight = bFirst && buf('bounce_weight');
+const exitRgb = new Float32Array(bFirst ? nv * 3 : 0);
 // Per-vertex linear radiance towards the eye (viewer_export.h).
 function shade(map, theta, eye) {
   prepareLight(map, theta);
@@ -268,6 +272,14 @@ function shade(map, theta, eye) {
     for (let j = 0; j < K; ++j) { const q = 3 * tIdx[o + j], w = tVal[o + j]; r += w * L[q]; gg += w * L[q + 1]; b += w * L[q + 2]; }
     const sc = tScale[v];
     color[3 * v] = dif[3 * v] * r * sc; color[3 * v + 1] = dif[3 * v + 1] * gg * sc; color[3 * v + 2] = dif[3 * v + 2] * b * sc;
+  }
+  if (bFirst) {  // one bounce: the diffuse exit radiance of the vertices each one sees, onto its diffuse albedo
+    exitRgb.set(color);
+    for (let v = 0; v < nv; ++v) {
+      let r = 0, gg = 0, b = 0;
+      for (let s = bFirst[v]; s < bFirst[v + 1]; ++s) { const u = 3 * bSource[s], w = bWeight[s]; r += w * exitRgb[u]; gg += w * exitRgb[u + 1]; b += w * exitRgb[u + 2]; }
+      color[3 * v] += dif[3 * v] * r; color[3 * v + 1] += dif[3 * v + 1] * gg; color[3 * v + 2] += dif[3 * v + 2] * b;
+    }
   }
   if (!lobes.length) return;
   const c = Math.cos(theta), s = Math.sin(theta);
@@ -536,6 +548,22 @@ ViewerExport WriteViewerAssets(const std::string& dir, const RecoveredModel& mod
     buffers.Add("transport_index", "u16", index);
     buffers.Add("transport_value", "i16", value);
     buffers.Add("transport_scale", "f32", scale);
+  }
+
+  // The one bounce the model was solved with (RecoveredModel::bounce_rays_per_side): each vertex's sources and
+  // their weights (visibility/bounce.h), the occluders blocking; the page gathers the diffuse exit radiance.
+  meta["bounce_pairs"] = 0;
+  if (model.bounce_rays_per_side > 0) {
+    std::vector<const TriangleMesh*> meshes = {&mesh};
+    if (!model.occluders.empty()) meshes.push_back(&model.occluders);
+    const RayCaster caster(meshes);
+    BounceOptions bo;
+    bo.rays_per_side = model.bounce_rays_per_side;
+    const BounceSamples bounce = ComputeBounceSamples(mesh, caster, bo);
+    meta["bounce_pairs"] = bounce.hit_vertex.size();
+    buffers.Add("bounce_first", "u32", bounce.first);
+    buffers.Add("bounce_source", "u32", bounce.hit_vertex);
+    buffers.Add("bounce_weight", "f32", bounce.weight);
   }
 
   // Glossy lobes: per-vertex RGB, directional albedo tables, coarse visibility.

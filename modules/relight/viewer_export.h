@@ -15,6 +15,9 @@
 //            directional albedo; V_v(r) the vertex's visibility averaged to a glossy_visibility² hemi-
 //            octahedral map, read bilinearly at r. Exact are: no visibility inside the lobe's footprint but
 //            at its axis, and the lobe's true shape (its cosine, horizon and Fresnel are in A_b only).
+//   bounce   with the bounce the model was solved with (RecoveredModel::bounce_rays_per_side): the diffuse
+//            term of every vertex plus ρ_v,diffuse ⊙ Σ_s w_s D_s, D_s the diffuse term of the vertices it sees
+//            (visibility/bounce.h; the occluders block, their own bounce is left out).
 // Then exposure and the sRGB curve (relight/display.h): by default the exposure maps the tonemap_percentile
 // of the vertices' luminance under the selected map to 1 (relight's PNGs take it over pixels); an
 // `exposure` URL parameter sets it. Shading is per vertex and interpolated over the triangles (Gouraud).

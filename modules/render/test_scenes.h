@@ -65,6 +65,39 @@ inline TriangleMesh Plane(double half, double z, int cells = 1) {
   return mesh;
 }
 
+// A hemispherical bowl: the lower half of a sphere of radius 0.5 around (0, 0, 0.5), seen from inside (normals
+// radial, pointing in; front faces inside), `rings` rings of latitude up to the rim at the equator and
+// `segments` around.
+inline TriangleMesh Bowl(int rings, int segments) {
+  const Eigen::Vector3f center(0, 0, 0.5f);
+  const float radius = 0.5f;
+  TriangleMesh bowl;
+  bowl.vertices.push_back(center - Eigen::Vector3f(0, 0, radius));  // the bottom pole
+  for (int i = 1; i <= rings; ++i) {
+    const float polar = float(M_PI) * (1.0f - 0.5f * i / rings);  // from the bottom (π) to the rim (π/2)
+    for (int j = 0; j < segments; ++j) {
+      const float az = 2 * float(M_PI) * j / segments;
+      bowl.vertices.push_back(center + radius * Eigen::Vector3f(std::sin(polar) * std::cos(az),
+                                                                std::sin(polar) * std::sin(az), std::cos(polar)));
+    }
+  }
+  for (const Eigen::Vector3f& p : bowl.vertices) bowl.normals.push_back((center - p).normalized());
+  auto ring = [&](int i, int j) { return 1 + (i - 1) * segments + (j % segments); };
+  for (int j = 0; j < segments; ++j) bowl.faces.emplace_back(0, ring(1, j), ring(1, j + 1));
+  for (int i = 1; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      bowl.faces.emplace_back(ring(i, j), ring(i + 1, j), ring(i + 1, j + 1));
+      bowl.faces.emplace_back(ring(i, j), ring(i + 1, j + 1), ring(i, j + 1));
+    }
+  // Winding with the normals (front faces inside).
+  for (Eigen::Vector3i& f : bowl.faces) {
+    const Eigen::Vector3f n =
+        (bowl.vertices[f[1]] - bowl.vertices[f[0]]).cross(bowl.vertices[f[2]] - bowl.vertices[f[0]]);
+    if (n.dot(bowl.normals[f[0]] + bowl.normals[f[1]] + bowl.normals[f[2]]) < 0) std::swap(f[1], f[2]);
+  }
+  return bowl;
+}
+
 // A bumpy height field over [-1,1]^2 with side x side vertices (100,489 for
 // side 317): real self-occlusion for the visibility and observation benchmarks.
 inline TriangleMesh Terrain(int side) {
