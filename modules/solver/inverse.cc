@@ -898,97 +898,115 @@ InverseProblem ReadInverseProblem(const std::string& mesh_dir, const std::string
   return p;
 }
 
-InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir, const std::string& mesh_dir,
-                          const std::string& visibility_dir, const std::string& observe_dir,
-                          const std::string& output_dir) {
-  InverseProblem problem = ReadInverseProblem(mesh_dir, visibility_dir, observe_dir);
-  problem.scratch_dir = output_dir;
-  KnownQuantities known;
-  if (o.fixed_lighting || o.fixed_reflectance || o.start_from_truth) known = LoadKnown(o, ingest_dir, problem);
-  const InverseResult result = SolveInverse(problem, o, &known);
+namespace {
 
-  // Outputs.
-  EnsureDir(JoinPath(output_dir, "envmaps"));
-  const int n_out = o.lighting_basis == "haar" ? o.env_resolution : 32;
-  Json photos_json = Json::array();
+// Per-photo numbers of the recovered maps, for the medians in solve_summary.json.
+struct LightingStats {
   std::vector<double> coefficients_99;              // per photo (haar)
   std::vector<double> determined, resolved_detail;  // per photo (LightingResolution)
-  for (const auto& photo : problem.photos) {
-    const std::string stem = fs::path(photo.name).stem().string();
-    const std::vector<float> rgb = result.lighting.OctahedralRgb(static_cast<int>(photo.index), n_out);
-    Image oct(n_out, n_out, 3);
-    for (size_t k = 0; k < rgb.size(); ++k) oct.pixels[k] = std::max(0.0f, rgb[k]);
-    WriteImage(JoinPath(output_dir, "envmaps/" + stem + "_oct.exr"), oct, {PixelType::kFloat});
-    const EnvMap env = EnvMap::FromOctahedral(oct);
-    WriteImage(JoinPath(output_dir, "envmaps/" + stem + "_latlong.exr"), env.ToLatLong(std::max(32, 2 * n_out), 0),
-               {PixelType::kFloat});
-    // Brightest direction of the map (texel of largest luminance).
-    int best = 0;
-    double best_lum = -1;
-    for (int k = 0; k < n_out * n_out; ++k) {
-      const double lum = Luminance(&oct.pixels[k * 3]);
-      if (lum > best_lum) {
-        best_lum = lum;
-        best = k;
-      }
+};
+
+// Brightest direction of an octahedral map (texel of largest luminance), world frame.
+Eigen::Vector3d BrightestDirection(const Image& oct, int n_out) {
+  int best = 0;
+  double best_lum = -1;
+  for (int k = 0; k < n_out * n_out; ++k) {
+    const double lum = Luminance(&oct.pixels[k * 3]);
+    if (lum > best_lum) {
+      best_lum = lum;
+      best = k;
     }
-    const Eigen::Vector3d dir = OctTexelDirection(best % n_out, best / n_out, n_out);
-    Json entry = {{"index", photo.index},
-                  {"name", photo.name},
-                  {"envmap_oct", "envmaps/" + stem + "_oct.exr"},
-                  {"envmap_latlong", "envmaps/" + stem + "_latlong.exr"},
-                  {"brightest_direction_world", {dir.x(), dir.y(), dir.z()}}};
-    if (o.lighting_basis == "haar") {
-      // How many wavelet coefficients the map uses: the fewest holding 99% of its luminance's
-      // detail energy (the mean, coefficient 0, left out).
-      std::vector<float> lum(size_t(n_out) * n_out);
-      for (size_t k = 0; k < lum.size(); ++k)
-        lum[k] = static_cast<float>(
-            Luminance(Eigen::Vector3d(oct.pixels[k * 3], oct.pixels[k * 3 + 1], oct.pixels[k * 3 + 2])));
-      HaarForward(lum.data(), n_out, lum.data());
-      lum[0] = 0.0f;
-      const size_t used = KeepEnergy(lum.data(), n_out, 0.99).size();
-      entry["haar_coefficients_99"] = used;
-      coefficients_99.push_back(static_cast<double>(used));
-    }
-    if (photo.index < result.summary.map_resolution.size()) {
-      // What the photos determine of this map (LightingResolution).
-      const MapResolution& m = result.summary.map_resolution[photo.index];
-      entry["determined_coefficients"] = m.dof;
-      entry["determined_per_level"] = m.dof_per_level;
-      entry["coefficients_per_level"] = m.coefficients_per_level;
-      const double detail = ResolvedDetailDegrees(m, o.lighting_basis);
-      entry["resolved_detail_deg"] = detail > 0 ? Json(detail) : Json();
-      if (m.data_share.size() == size_t(n_out) * n_out) {
-        // Which directions the photos see, which the priors fill: a grey octahedral map (white: the photos').
-        Image share(n_out, n_out, 1);
-        double mean = 0;
-        for (size_t k = 0; k < m.data_share.size(); ++k) {
-          share.pixels[k] = std::clamp(m.data_share[k], 0.0f, 1.0f);
-          mean += share.pixels[k] / double(m.data_share.size());
-        }
-        const std::string png = "envmaps/" + stem + "_determined.png";
-        WriteImage(JoinPath(output_dir, png), share);
-        entry["determined_map"] = png;
-        entry["data_share_mean"] = mean;
-        // The daylight model fitted to what the photos determine: the sun's direction to sub-texel precision.
-        std::array<std::vector<double>, 3> rgb;
-        for (int c = 0; c < 3; ++c) {
-          rgb[c].resize(m.data_share.size());
-          for (size_t k = 0; k < rgb[c].size(); ++k) rgb[c][k] = oct.pixels[k * 3 + c];
-        }
-        const NaturalLight sky = FitNaturalLight({rgb[0].data(), rgb[1].data(), rgb[2].data()},
-                                                 std::vector<double>(m.data_share.begin(), m.data_share.end()), n_out);
-        const Eigen::Vector3d& sun = sky.sun_dir_world;
-        entry["sun"] = {{"direction_world", {sun.x(), sun.y(), sun.z()}},
-                        {"elevation_deg", std::asin(std::clamp(sun.z(), -1.0, 1.0)) * 180.0 / M_PI},
-                        {"irradiance_share", sky.sun_irradiance_share}};
-      }
-      determined.push_back(m.dof);
-      if (detail > 0) resolved_detail.push_back(detail);
-    }
-    photos_json.push_back(entry);
   }
+  return OctTexelDirection(best % n_out, best / n_out, n_out);
+}
+
+// How many wavelet coefficients the map uses: the fewest holding 99% of its luminance's
+// detail energy (the mean, coefficient 0, left out).
+size_t HaarCoefficients99(const Image& oct, int n_out) {
+  std::vector<float> lum(size_t(n_out) * n_out);
+  for (size_t k = 0; k < lum.size(); ++k)
+    lum[k] =
+        static_cast<float>(Luminance(Eigen::Vector3d(oct.pixels[k * 3], oct.pixels[k * 3 + 1], oct.pixels[k * 3 + 2])));
+  HaarForward(lum.data(), n_out, lum.data());
+  lum[0] = 0.0f;
+  return KeepEnergy(lum.data(), n_out, 0.99).size();
+}
+
+// Which directions the photos see, which the priors fill (envmaps/<stem>_determined.png, white: the photos'), and the
+// daylight model fitted to what the photos determine, into the photo's lighting.json entry.
+void WriteDataShare(const MapResolution& m, const Image& oct, int n_out, const std::string& stem,
+                    const std::string& output_dir, Json* entry) {
+  Image share(n_out, n_out, 1);
+  double mean = 0;
+  for (size_t k = 0; k < m.data_share.size(); ++k) {
+    share.pixels[k] = std::clamp(m.data_share[k], 0.0f, 1.0f);
+    mean += share.pixels[k] / double(m.data_share.size());
+  }
+  const std::string png = "envmaps/" + stem + "_determined.png";
+  WriteImage(JoinPath(output_dir, png), share);
+  (*entry)["determined_map"] = png;
+  (*entry)["data_share_mean"] = mean;
+  // The daylight model fitted to what the photos determine: the sun's direction to sub-texel precision.
+  std::array<std::vector<double>, 3> rgb;
+  for (int c = 0; c < 3; ++c) {
+    rgb[c].resize(m.data_share.size());
+    for (size_t k = 0; k < rgb[c].size(); ++k) rgb[c][k] = oct.pixels[k * 3 + c];
+  }
+  const NaturalLight sky = FitNaturalLight({rgb[0].data(), rgb[1].data(), rgb[2].data()},
+                                           std::vector<double>(m.data_share.begin(), m.data_share.end()), n_out);
+  const Eigen::Vector3d& sun = sky.sun_dir_world;
+  (*entry)["sun"] = {{"direction_world", {sun.x(), sun.y(), sun.z()}},
+                     {"elevation_deg", std::asin(std::clamp(sun.z(), -1.0, 1.0)) * 180.0 / M_PI},
+                     {"irradiance_share", sky.sun_irradiance_share}};
+}
+
+// One photo's maps (envmaps/<stem>_oct.exr, _latlong.exr, _determined.png) and its lighting.json entry; its numbers
+// into `stats`.
+Json WritePhotoLighting(const InverseOptions& o, const ObservedPhoto& photo, const InverseResult& result, int n_out,
+                        const std::string& output_dir, LightingStats* stats) {
+  const std::string stem = fs::path(photo.name).stem().string();
+  const std::vector<float> rgb = result.lighting.OctahedralRgb(static_cast<int>(photo.index), n_out);
+  Image oct(n_out, n_out, 3);
+  for (size_t k = 0; k < rgb.size(); ++k) oct.pixels[k] = std::max(0.0f, rgb[k]);
+  WriteImage(JoinPath(output_dir, "envmaps/" + stem + "_oct.exr"), oct, {PixelType::kFloat});
+  const EnvMap env = EnvMap::FromOctahedral(oct);
+  WriteImage(JoinPath(output_dir, "envmaps/" + stem + "_latlong.exr"), env.ToLatLong(std::max(32, 2 * n_out), 0),
+             {PixelType::kFloat});
+  const Eigen::Vector3d dir = BrightestDirection(oct, n_out);
+  Json entry = {{"index", photo.index},
+                {"name", photo.name},
+                {"envmap_oct", "envmaps/" + stem + "_oct.exr"},
+                {"envmap_latlong", "envmaps/" + stem + "_latlong.exr"},
+                {"brightest_direction_world", {dir.x(), dir.y(), dir.z()}}};
+  if (o.lighting_basis == "haar") {
+    const size_t used = HaarCoefficients99(oct, n_out);
+    entry["haar_coefficients_99"] = used;
+    stats->coefficients_99.push_back(static_cast<double>(used));
+  }
+  if (photo.index < result.summary.map_resolution.size()) {
+    // What the photos determine of this map (LightingResolution).
+    const MapResolution& m = result.summary.map_resolution[photo.index];
+    entry["determined_coefficients"] = m.dof;
+    entry["determined_per_level"] = m.dof_per_level;
+    entry["coefficients_per_level"] = m.coefficients_per_level;
+    const double detail = ResolvedDetailDegrees(m, o.lighting_basis);
+    entry["resolved_detail_deg"] = detail > 0 ? Json(detail) : Json();
+    if (m.data_share.size() == size_t(n_out) * n_out) WriteDataShare(m, oct, n_out, stem, output_dir, &entry);
+    stats->determined.push_back(m.dof);
+    if (detail > 0) stats->resolved_detail.push_back(detail);
+  }
+  return entry;
+}
+
+// envmaps/ and lighting.json; returns the per-photo numbers.
+LightingStats WriteLighting(const InverseOptions& o, const InverseProblem& problem, const InverseResult& result,
+                            const std::string& output_dir) {
+  EnsureDir(JoinPath(output_dir, "envmaps"));
+  const int n_out = o.lighting_basis == "haar" ? o.env_resolution : 32;
+  LightingStats stats;
+  Json photos_json = Json::array();
+  for (const auto& photo : problem.photos)
+    photos_json.push_back(WritePhotoLighting(o, photo, result, n_out, output_dir, &stats));
   WriteJsonAtomic(JoinPath(output_dir, "lighting.json"), [&] {
     Json j{{"basis", o.lighting_basis}, {"env_resolution", n_out}, {"photos", photos_json}};
     // Relight renders the bounce the maps were solved with.
@@ -1001,9 +1019,12 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
     }
     return j;
   }());
+  return stats;
+}
 
-  const ReflectanceState& r = result.reflectance;
-  TriangleMesh out = problem.mesh;
+// reflectance.ply (the mesh with per-vertex material weights and diffuse albedo) and materials.json.
+void WriteReflectance(const TriangleMesh& mesh, const ReflectanceState& r, const std::string& output_dir) {
+  TriangleMesh out = mesh;
   const ReflectanceModel model = r.Model();
   for (int m = 0; m < r.num_materials; ++m) {
     std::vector<float>& w = out.Property("w" + std::to_string(m));
@@ -1019,14 +1040,69 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   }
   WriteMeshPly(JoinPath(output_dir, "reflectance.ply"), out);
   WriteReflectanceModel(JoinPath(output_dir, "materials.json"), model);
+}
 
+// solve_summary.json's "iterations".
+Json IterationsJson(const std::vector<IterationRecord>& iterations) {
+  Json iters = Json::array();
+  for (const auto& it : iterations) {
+    iters.push_back({{"iteration", it.iteration},
+                     {"objective", it.objective},
+                     {"train_rmse", it.train_rmse},
+                     {"holdout_rmse", it.holdout_rmse},
+                     {"lighting_seconds", it.lighting_seconds},
+                     {"reflectance_seconds", it.reflectance_seconds},
+                     {"solve_seconds", it.solve_seconds},
+                     {"photo_rmse", it.photo_rmse}});
+  }
+  return iters;
+}
+
+// solve_summary.json's "starts".
+Json StartsJson(const std::vector<StartRecord>& starts) {
+  Json out = Json::array();
+  for (const auto& st : starts) {
+    out.push_back({{"init_gloss", st.init_gloss},
+                   {"score", st.score},
+                   {"best_iteration", st.best_iteration},
+                   {"iterations", st.iterations},
+                   {"seconds", st.seconds},
+                   {"train_rmse", st.train_rmse},
+                   {"holdout_rmse", st.holdout_rmse},
+                   {"solve_seconds", st.solve_seconds},
+                   {"chosen", st.chosen}});
+  }
+  return out;
+}
+
+// solve_summary.json's "model_selection" candidates.
+Json CandidatesJson(const std::vector<ModelCandidate>& candidates) {
+  Json cands = Json::array();
+  for (const auto& c : candidates) {
+    cands.push_back({{"stage", c.stage},
+                     {"model", c.description},
+                     {"materials", c.materials},
+                     {"basis", c.basis},
+                     {"env_resolution", c.env_resolution},
+                     {"holdout_rmse", c.holdout_rmse},
+                     {"train_rmse", c.train_rmse},
+                     {"seconds", c.seconds},
+                     {"solve_seconds", c.solve_seconds},
+                     {"chosen", c.chosen}});
+  }
+  return cands;
+}
+
+// solve_summary.json: the problem's size, the solve's summary and the medians of the per-photo numbers.
+void WriteSolveSummary(const InverseOptions& o, const InverseProblem& problem, const InverseResult& result,
+                       const LightingStats& stats, const std::string& output_dir) {
   const InverseSummary& s = result.summary;
   OrderedJson j;
   j["lighting_basis"] = o.lighting_basis;
   j["env_resolution"] = o.env_resolution;
   j["sh_order"] = o.sh_order;
   j["basis"] = o.basis;
-  j["materials"] = r.num_materials;
+  j["materials"] = result.reflectance.num_materials;
   j["photos"] = problem.photos.size();
   j["vertices"] = problem.mesh.num_vertices();
   j["observations"] = problem.observations.records.size();
@@ -1050,65 +1126,44 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   }
   j["transport_footprint"] = s.transport_footprint;
   j["transport_mean_coefficients_per_row"] = s.transport_mean_coefficients_per_row;
-  Json iters = Json::array();
-  for (const auto& it : s.iterations) {
-    iters.push_back({{"iteration", it.iteration},
-                     {"objective", it.objective},
-                     {"train_rmse", it.train_rmse},
-                     {"holdout_rmse", it.holdout_rmse},
-                     {"lighting_seconds", it.lighting_seconds},
-                     {"reflectance_seconds", it.reflectance_seconds},
-                     {"solve_seconds", it.solve_seconds},
-                     {"photo_rmse", it.photo_rmse}});
-  }
-  j["iterations"] = iters;
+  j["iterations"] = IterationsJson(s.iterations);
   j["best_iteration"] = s.best_iteration;
   j["stop_reason"] = s.stop_reason;
   j["model"] = s.chosen_model;
-  {
-    Json starts = Json::array();
-    for (const auto& st : s.starts) {
-      starts.push_back({{"init_gloss", st.init_gloss},
-                        {"score", st.score},
-                        {"best_iteration", st.best_iteration},
-                        {"iterations", st.iterations},
-                        {"seconds", st.seconds},
-                        {"train_rmse", st.train_rmse},
-                        {"holdout_rmse", st.holdout_rmse},
-                        {"solve_seconds", st.solve_seconds},
-                        {"chosen", st.chosen}});
-    }
-    j["starts"] = starts;
-  }
-  if (!s.candidates.empty()) {
-    Json cands = Json::array();
-    for (const auto& c : s.candidates) {
-      cands.push_back({{"stage", c.stage},
-                       {"model", c.description},
-                       {"materials", c.materials},
-                       {"basis", c.basis},
-                       {"env_resolution", c.env_resolution},
-                       {"holdout_rmse", c.holdout_rmse},
-                       {"train_rmse", c.train_rmse},
-                       {"seconds", c.seconds},
-                       {"solve_seconds", c.solve_seconds},
-                       {"chosen", c.chosen}});
-    }
-    j["model_selection"] = {{"seconds", s.selection_seconds}, {"candidates", cands}};
-  }
+  j["starts"] = StartsJson(s.starts);
+  if (!s.candidates.empty())
+    j["model_selection"] = {{"seconds", s.selection_seconds}, {"candidates", CandidatesJson(s.candidates)}};
   auto median = [](std::vector<double> v) {
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
     return v[v.size() / 2];
   };
-  if (!coefficients_99.empty()) j["lighting_coefficients_99_median"] = median(coefficients_99);
-  if (!determined.empty()) {
-    j["lighting_determined_coefficients_median"] = median(determined);
+  if (!stats.coefficients_99.empty()) j["lighting_coefficients_99_median"] = median(stats.coefficients_99);
+  if (!stats.determined.empty()) {
+    j["lighting_determined_coefficients_median"] = median(stats.determined);
     j["map_resolution_seconds"] = s.map_resolution_seconds;
   }
-  if (!resolved_detail.empty()) j["lighting_resolved_detail_deg_median"] = median(resolved_detail);
+  if (!stats.resolved_detail.empty()) j["lighting_resolved_detail_deg_median"] = median(stats.resolved_detail);
   j["gauge"] = o.gauge;
   j["seconds"] = s.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "solve_summary.json"), j);
+}
+
+}  // namespace
+
+InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir, const std::string& mesh_dir,
+                          const std::string& visibility_dir, const std::string& observe_dir,
+                          const std::string& output_dir) {
+  InverseProblem problem = ReadInverseProblem(mesh_dir, visibility_dir, observe_dir);
+  problem.scratch_dir = output_dir;
+  KnownQuantities known;
+  if (o.fixed_lighting || o.fixed_reflectance || o.start_from_truth) known = LoadKnown(o, ingest_dir, problem);
+  const InverseResult result = SolveInverse(problem, o, &known);
+
+  // Outputs.
+  const LightingStats stats = WriteLighting(o, problem, result, output_dir);
+  WriteReflectance(problem.mesh, result.reflectance, output_dir);
+  WriteSolveSummary(o, problem, result, stats, output_dir);
+  const InverseSummary& s = result.summary;
   RLOG_INFO("inverse: {} iterations ({}), best {}, {:.1f} s", s.iterations.size(), s.stop_reason, s.best_iteration,
             s.seconds);
   return s;
