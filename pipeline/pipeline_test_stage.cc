@@ -2,18 +2,30 @@
 // file per item (atomically, skipping items already written: per-item resume)
 // and appends each invocation to $TEST_STAGE_LOG. $TEST_STAGE_FAIL / $TEST_STAGE_CRASH
 // name a stage that fails with a user error / dies of SIGSEGV after logging a line.
+#include "pipeline/pipeline_test_stage.h"
+
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include "core/fs.h"
 #include "core/log.h"
 #include "core/stage.h"
-#include "pipeline/pipeline_test_stage.h"
+
+namespace {
+struct TestStageSummary {
+  int computed = 0;
+  long total = 0;
+  std::string BriefReport() const {
+    return TEST_STAGE_NAME ": " + std::to_string(computed) + " items computed, total " + std::to_string(total);
+  }
+};
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace relight;
@@ -48,5 +60,6 @@ int main(int argc, char** argv) {
     }
     std::ofstream(ctx.OutputPath("computed.txt"), std::ios::app) << computed << "\n";
     WriteFileAtomic(ctx.OutputPath("result.txt"), std::to_string(total));
+    return TestStageSummary{computed, total};
   });
 }

@@ -34,6 +34,8 @@ std::string StageContext::OutputPath(const std::string& relative) const { return
 
 namespace internal {
 
+void LogBriefReport(const std::string& report) { RLOG_INFO("{}", report); }
+
 int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* table,
                     const std::function<void()>& check, const StageRunFn& run) {
   CLI::App app(info.name + ": " + info.description, info.name);

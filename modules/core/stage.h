@@ -16,6 +16,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/config.h"
@@ -72,19 +73,29 @@ using StageRunFn = std::function<void(const StageContext&)>;
 // Non-template part of StageMain: argument parsing, logging, error handling.
 int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* table,
                     const std::function<void()>& check, const StageRunFn& run);
+void LogBriefReport(const std::string& report);
 }  // namespace internal
 
-// The whole `main` of a stage executable:
+// The whole `main` of a stage executable. `run(options, ctx)` reads the upstream folders of `ctx` into the
+// stage's `XxxInputs` and calls its `RunXxx(options, inputs, ctx.output_dir[, ctx.shard])`, returning the
+// stage's summary, whose `BriefReport()` (one paragraph) is logged when the stage finishes (not after a
+// shard's part of it, which has no summary):
 //   int main(int argc, char** argv) {
-//     return relight::StageMain<SynthesizeOptions>(argc, argv, kSynthesizeStage, RunSynthesize);
+//     return relight::StageMain<VisibilityOptions>(argc, argv, kVisibilityStage,
+//         [](const VisibilityOptions& o, const StageContext& ctx) {
+//           return RunVisibility(o, {ctx.Input("mesh")}, ctx.output_dir);
+//         });
 //   }
-template <typename Options>
-int StageMain(int argc, char** argv, const StageInfo& info,
-              const std::function<void(const Options&, const StageContext&)>& run) {
+template <typename Options, typename Run>
+int StageMain(int argc, char** argv, const StageInfo& info, const Run& run) {
   Options options;
   OptionTable table = MakeOptionTable(info.name, &options);
   return internal::RunStageProgram(
-      argc, argv, info, &table, [&] { options.Check(); }, [&](const StageContext& ctx) { run(options, ctx); });
+      argc, argv, info, &table, [&] { options.Check(); },
+      [&](const StageContext& ctx) {
+        const auto summary = run(std::as_const(options), ctx);
+        if (!ctx.shard.active()) internal::LogBriefReport(summary.BriefReport());
+      });
 }
 
 }  // namespace relight

@@ -195,6 +195,7 @@ const std::vector<std::string>& HeadlineMetricKeys() {
 
 std::string EvaluateSummary::BriefReport() const {
   std::ostringstream s;
+  s << "evaluate: ";
   bool first = true;
   for (const auto& key : HeadlineMetricKeys()) {
     if (!metrics.contains(key) || metrics[key].is_null()) continue;
@@ -1251,7 +1252,6 @@ EvaluateSummary RunEvaluate(const EvaluateOptions& o, const EvaluateInputs& in, 
   RecordSeconds(in, total, &summary);
   WriteJsonAtomic(JoinPath(output_dir, "metrics.json"), m);
   WriteJsonAtomic(JoinPath(output_dir, "figures.json"), fig);
-  RLOG_INFO("evaluate: {}", summary.BriefReport());
   return summary;
 }
 

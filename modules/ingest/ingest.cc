@@ -17,6 +17,7 @@
 #include "core/path_text.h"
 #include "core/progress.h"
 #include "core/timer.h"
+#include "datasets/diligent.h"
 #include "image/color.h"
 
 namespace relight {
@@ -174,8 +175,11 @@ std::optional<double> FocalPixelsFromExif(const ImageMetadata& exif, int source_
   return *exif.focal_length_35mm * diag_px / std::hypot(36.0, 24.0);
 }
 
-IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_dir,
-                        const std::string& ground_truth_dir, const std::string& output_dir) {
+namespace {
+
+// The stage on a resolved folder of photos; `keep_all`: no photo is dropped as black-and-white or duplicate.
+IngestSummary IngestFolder(const IngestOptions& options, const std::string& photo_dir,
+                           const std::string& ground_truth_dir, bool keep_all, const std::string& output_dir) {
   Timer timer;
   IngestSummary summary;
   std::error_code ec;
@@ -269,14 +273,14 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
   for (size_t i = 0; i < candidates.size(); ++i) {
     Candidate& c = candidates[i];
     if (!c.ok) continue;
-    if (options.drop_grayscale && c.mean_chroma < options.grayscale_chroma) {
+    if (options.drop_grayscale && !keep_all && c.mean_chroma < options.grayscale_chroma) {
       c.ok = false;
       c.kind = SkipKind::kGrayscale;
       c.reason = "black-and-white photo (mean chroma " + std::to_string(c.mean_chroma) +
                  " < ingest.grayscale_chroma); it carries no colour of the light";
       continue;
     }
-    if (options.drop_duplicates) {
+    if (options.drop_duplicates && !keep_all) {
       for (size_t j : kept) {
         const Candidate& o = candidates[j];
         if (o.photo.sha256 == c.photo.sha256) {
@@ -406,9 +410,42 @@ IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_d
   stage_summary["skipped"] = summary.skipped.size();
   stage_summary["seconds"] = summary.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "summary.json"), stage_summary);
-  RLOG_INFO("{} photos ingested, {} skipped, in {:.1f} s", summary.photos.size(), summary.skipped.size(),
-            summary.seconds);
   return summary;
+}
+
+}  // namespace
+
+IngestSummary RunIngest(const IngestOptions& options, const IngestInputs& inputs, const std::string& output_dir) {
+  std::string photos = options.images;
+  std::string ground_truth = options.ground_truth;
+  if (!inputs.synthesize_dir.empty()) {
+    if (!photos.empty()) {
+      RELIGHT_USER_ERROR() << "ingest.images is set and the synthesize stage runs too; remove one of them";
+    }
+    photos = JoinPath(inputs.synthesize_dir, "images");
+    if (ground_truth.empty()) ground_truth = JoinPath(inputs.synthesize_dir, "ground_truth");
+  }
+  const bool diligent = options.format == "diligent";
+  if (diligent) {
+    // A DiLiGenT object folder becomes a scene (photos + ground truth) first.
+    if (photos.empty()) RELIGHT_USER_ERROR() << "ingest.format = diligent needs ingest.images (the object folder)";
+    const std::string scene = JoinPath(output_dir, "import");
+    ImportDiligent(photos, scene, {options.diligent_sphere_subdivisions, 100.0});
+    photos = JoinPath(scene, "images");
+    if (ground_truth.empty()) ground_truth = JoinPath(scene, "ground_truth");
+  }
+  if (photos.empty()) {
+    RELIGHT_USER_ERROR() << "no photos: set ingest.images to the folder of downloaded photos "
+                         << "(or add a synthesize: section to render a synthetic collection)";
+  }
+  // Calibrated photometric data (DiLiGenT): one view under different known lights. The photos are nearly
+  // achromatic on a dark background and may look alike; every one of them is used.
+  return IngestFolder(options, photos, ground_truth, diligent, output_dir);
+}
+
+std::string IngestSummary::BriefReport() const {
+  return fmt::format("ingest: {} photos, {} skipped{}; {}", photos.size(), skipped.size(),
+                     skipped.empty() ? "" : " (reasons in manifest.json)", Progress::FormatSeconds(seconds));
 }
 
 IngestSummary ReadIngestManifest(const std::string& ingest_dir) {

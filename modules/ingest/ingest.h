@@ -41,12 +41,21 @@ struct IngestSummary {
   std::vector<IngestedPhoto> photos;
   std::vector<SkippedFile> skipped;
   double seconds = 0;
+
+  // One line for the log.
+  std::string BriefReport() const;
 };
 
-// Runs the stage: reads `photo_dir`, writes images/ and manifest.json into `output_dir`.
-// `ground_truth_dir` (may be empty) is copied to output_dir/ground_truth.
-IngestSummary RunIngest(const IngestOptions& options, const std::string& photo_dir,
-                        const std::string& ground_truth_dir, const std::string& output_dir);
+// What the stage reads besides its options.
+struct IngestInputs {
+  std::string synthesize_dir;  // the synthesize stage's folder (images/, ground_truth/); empty: ingest.images
+};
+
+// Runs the stage: reads the photos of ingest.images (or of the synthesize stage; a DiLiGenT object folder,
+// ingest.format diligent, is imported into output_dir/import first and keeps every photo), writes images/,
+// manifest.json and summary.json into `output_dir`; ground truth (ingest.ground_truth, the synthesize stage's
+// or the import's) is copied to output_dir/ground_truth.
+IngestSummary RunIngest(const IngestOptions& options, const IngestInputs& inputs, const std::string& output_dir);
 
 // Focal length in pixels of an image `max_side` pixels wide from EXIF, if the data allow.
 std::optional<double> FocalPixelsFromExif(const ImageMetadata& exif, int source_width, int source_height,

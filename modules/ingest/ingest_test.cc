@@ -46,6 +46,13 @@ class IngestTest : public ::testing::Test {
   testing::TempDir dir_;
   std::string photos() { return dir_ / "photos"; }
   std::string out() { return dir_ / "out"; }
+  // The stage on `photo_dir` (ingest.images) and `ground_truth` (ingest.ground_truth).
+  static IngestSummary Ingest(IngestOptions options, const std::string& photo_dir, const std::string& ground_truth,
+                              const std::string& output_dir) {
+    options.images = photo_dir;
+    options.ground_truth = ground_truth;
+    return RunIngest(options, {}, output_dir);
+  }
 };
 
 TEST_F(IngestTest, BadFilesAreSkippedWithReasons) {
@@ -56,7 +63,7 @@ TEST_F(IngestTest, BadFilesAreSkippedWithReasons) {
   std::ofstream(photos() + "/notes.jpg") << "not a jpeg at all";
   std::ofstream(photos() + "/empty.jpg");
   std::ofstream(photos() + "/readme.txt") << "hello";  // not a photo by its name: not read at all
-  const IngestSummary s = RunIngest(IngestOptions{}, photos(), "", out());
+  const IngestSummary s = Ingest(IngestOptions{}, photos(), "", out());
   ASSERT_EQ(s.photos.size(), 3u);
   ASSERT_EQ(s.skipped.size(), 3u);
   std::map<std::string, std::string> reasons;
@@ -75,7 +82,7 @@ TEST_F(IngestTest, BadFilesAreSkippedWithReasons) {
 
 TEST_F(IngestTest, EmptyFolderAndTooFewPhotosAreClearErrors) {
   try {
-    RunIngest(IngestOptions{}, photos(), "", out());
+    Ingest(IngestOptions{}, photos(), "", out());
     FAIL();
   } catch (const UserError& e) {
     EXPECT_NE(std::string(e.what()).find("contains no photos (files ending in .jpg .jpeg"), std::string::npos)
@@ -84,7 +91,7 @@ TEST_F(IngestTest, EmptyFolderAndTooFewPhotosAreClearErrors) {
   std::ofstream(photos() + "/a.jpg") << "junk";
   WriteImage(photos() + "/b.png", Photo(64, 64, 1));
   try {
-    RunIngest(IngestOptions{}, photos(), "", out());
+    Ingest(IngestOptions{}, photos(), "", out());
     FAIL();
   } catch (const UserError& e) {
     const std::string msg = e.what();
@@ -92,7 +99,7 @@ TEST_F(IngestTest, EmptyFolderAndTooFewPhotosAreClearErrors) {
     EXPECT_NE(msg.find("a.jpg"), std::string::npos) << msg;
     EXPECT_NE(msg.find("ingest.min_photos"), std::string::npos) << msg;
   }
-  EXPECT_THROW(RunIngest(IngestOptions{}, dir_ / "missing", "", out()), UserError);
+  EXPECT_THROW(Ingest(IngestOptions{}, dir_ / "missing", "", out()), UserError);
 }
 
 TEST_F(IngestTest, DownscalesGrayscaleAndDuplicatesAreDropped) {
@@ -108,7 +115,7 @@ TEST_F(IngestTest, DownscalesGrayscaleAndDuplicatesAreDropped) {
   WriteImage(photos() + "/f.png", Photo(100, 200, 4));
   IngestOptions options;
   options.max_image_size = 256;
-  const IngestSummary s = RunIngest(options, photos(), "", out());
+  const IngestSummary s = Ingest(options, photos(), "", out());
   std::map<std::string, std::string> reasons;
   for (const auto& k : s.skipped) reasons[k.name] = k.reason;
   EXPECT_NE(reasons["c_copy.png"].find("exact duplicate of b.png"), std::string::npos) << reasons["c_copy.png"];
@@ -144,7 +151,7 @@ TEST_F(IngestTest, AbsurdHeaderSizeIsSkippedBeforeDecoding) {
   for (int i = 0; i < 3; ++i) WriteImage(photos() + "/good" + std::to_string(i) + ".jpg", Photo(80, 64, i));
   WriteJpegClaimingSize(photos() + "/huge.jpg", 60000, 60000);
   // Before: decoding allocated 43 GB of floats and the whole stage ended in "out of memory", naming no file.
-  const IngestSummary s = RunIngest(IngestOptions{}, photos(), "", out());
+  const IngestSummary s = Ingest(IngestOptions{}, photos(), "", out());
   ASSERT_EQ(s.photos.size(), 3u);
   ASSERT_EQ(s.skipped.size(), 1u);
   EXPECT_EQ(s.skipped[0].name, "huge.jpg");
@@ -158,7 +165,7 @@ TEST_F(IngestTest, TinyAndStripPhotosAreSkippedWithTheirSize) {
   WriteImage(photos() + "/strip.png", Photo(6000, 3, 6));
   WriteImage(photos() + "/banner.png", Photo(1200, 100, 8));
   IngestOptions options;
-  const IngestSummary s = RunIngest(options, photos(), "", out());
+  const IngestSummary s = Ingest(options, photos(), "", out());
   ASSERT_EQ(s.photos.size(), 3u);
   std::map<std::string, std::string> reasons;
   for (const auto& k : s.skipped) reasons[k.name] = k.reason;
@@ -171,7 +178,7 @@ TEST_F(IngestTest, TinyAndStripPhotosAreSkippedWithTheirSize) {
   // The shorter side counts after downscaling to max_image_size.
   options.max_aspect_ratio = 20;
   options.max_image_size = 400;
-  const IngestSummary scaled = RunIngest(options, photos(), "", dir_ / "out2");
+  const IngestSummary scaled = Ingest(options, photos(), "", dir_ / "out2");
   for (const auto& k : scaled.skipped) reasons[k.name] = k.reason;
   EXPECT_EQ(reasons["banner.png"],
             "1200x100 pixels (shorter side 33 after downscaling) is too small for feature matching "
@@ -182,7 +189,7 @@ TEST_F(IngestTest, NonUtf8FileNamesBecomeTextInTheManifest) {
   WriteImage(photos() + "/Sacr\xe9 C\x9cur.jpg", Photo(80, 64, 1));  // a Latin-1 name
   for (int i = 0; i < 2; ++i) WriteImage(photos() + "/p" + std::to_string(i) + ".jpg", Photo(80, 64, 2 + i));
   std::ofstream(photos() + "/d\xe9" "faut.jpg") << "broken";
-  const IngestSummary s = RunIngest(IngestOptions{}, photos(), "", out());  // threw json type_error 316 before
+  const IngestSummary s = Ingest(IngestOptions{}, photos(), "", out());  // threw json type_error 316 before
   ASSERT_EQ(s.photos.size(), 3u);
   const IngestSummary m = ReadIngestManifest(out());
   EXPECT_EQ(m.photos[0].name, "Sacr\\xE9 C\\x9Cur.jpg");
@@ -203,7 +210,7 @@ TEST_F(IngestTest, TooFewPhotosErrorIsShortAndGroupsTheReasons) {
   }
   std::ofstream(photos() + "/broken.jpg") << "junk";
   try {
-    RunIngest(IngestOptions{}, photos(), "", out());
+    Ingest(IngestOptions{}, photos(), "", out());
     FAIL();
   } catch (const UserError& e) {
     const std::string msg = e.what();
@@ -238,7 +245,7 @@ TEST_F(IngestTest, GroundTruthIsCarriedAlong) {
   for (int i = 0; i < 3; ++i) WriteImage(photos() + "/p" + std::to_string(i) + ".png", Photo(64, 64, 10 + i));
   fs::create_directories(dir_ / "gt/sub");
   std::ofstream(dir_ / "gt/sub/cameras.txt") << "# cameras";
-  RunIngest(IngestOptions{}, photos(), dir_ / "gt", out());
+  Ingest(IngestOptions{}, photos(), dir_ / "gt", out());
   EXPECT_EQ(ReadFileToString(out() + "/ground_truth/sub/cameras.txt"), "# cameras");
   EXPECT_EQ(ReadJsonFile(out() + "/manifest.json")["ground_truth"], "ground_truth");
 }

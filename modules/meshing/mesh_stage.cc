@@ -445,7 +445,6 @@ MeshSummary RunMesh(const MeshOptions& options, const MeshInputs& inputs, const 
   if (cameras != nullptr) WriteGeometryViews(*cameras, mesh, inputs.mvs_dir, output_dir);
   summary.seconds = timer.Seconds();
   WriteSummary(summary, options, JoinPath(output_dir, "mesh_summary.json"));
-  RLOG_INFO("{}", summary.BriefReport());
   return summary;
 }
 

@@ -360,8 +360,9 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
   return final_type;
 }
 
-MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir,
+MvsSummary RunMvs(const MvsOptions& options, const MvsInputs& inputs, const std::string& output_dir,
                   const ShardSpec& shard) {
+  const std::string& sfm_dir = inputs.sfm_dir;
   Timer total;
   MvsSummary summary;
   summary.engine = options.engine;
@@ -437,7 +438,6 @@ MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const s
   }
   summary.seconds = total.Seconds();
   WriteMvsSummary(summary, JoinPath(output_dir, "mvs_summary.json"));
-  RLOG_INFO("{}", summary.BriefReport());
   return summary;
 }
 

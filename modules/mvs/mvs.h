@@ -70,7 +70,10 @@ std::string ComputeDepthMaps(const MvsOptions& options, const MvsWorkspace& work
 // Runs the stage on an sfm output folder, writing into `output_dir` (exists). The depth maps use the TBB
 // threads the caller allows; COLMAP's fusion and Poisson run on one thread (colmap_tools.h). With an active
 // `shard`, the shard's depth maps of one pass only (ComputeDepthMaps), no fusion, meshing or summary.
-MvsSummary RunMvs(const MvsOptions& options, const std::string& sfm_dir, const std::string& output_dir,
+struct MvsInputs {
+  std::string sfm_dir;  // the sfm stage's folder
+};
+MvsSummary RunMvs(const MvsOptions& options, const MvsInputs& inputs, const std::string& output_dir,
                   const ShardSpec& shard = {});
 
 // Writes mvs_summary.json.

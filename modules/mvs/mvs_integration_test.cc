@@ -36,7 +36,7 @@ TEST(MvsIntegrationTest, SyntheticSceneMeetsTheAccuracyTargets) {
               camera.width, camera.height, scene.model.points3d.size(), scene.bbox_diagonal, timer.Seconds());
 
   const MvsOptions options;  // the defaults
-  const MvsSummary summary = RunMvs(options, dir / "sfm", dir / "out");
+  const MvsSummary summary = RunMvs(options, {dir / "sfm"}, dir / "out");
   std::printf("%s\n", summary.BriefReport().c_str());
   ASSERT_EQ(summary.num_reference_images, 16);
   EXPECT_TRUE(summary.mesh_closed);

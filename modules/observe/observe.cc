@@ -308,14 +308,25 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
   return out;
 }
 
-ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_dir, const std::string& mesh_dir,
-                          const std::string& linearize_dir, const std::string& output_dir, const ShardSpec& shard) {
+std::string ObserveSummary::BriefReport() const {
+  return fmt::format(
+      "observe: {} observations of {} vertices in {} photos ({} from an earlier run), {} vertices "
+      "unobserved; {} footprints with clipped pixels, {} of them kept as lower bounds in {} of their {} "
+      "channels; {}",
+      observations, vertices, photos, reused_photos, unobserved_vertices, clipped_footprints, lower_bounds,
+      lower_bound_channels, 3 * lower_bounds, Progress::FormatSeconds(seconds));
+}
+
+ObserveSummary RunObserve(const ObserveOptions& options, const ObserveInputs& inputs, const std::string& output_dir,
+                          const ShardSpec& shard) {
+  const std::string &sfm_dir = inputs.sfm_dir, &mesh_dir = inputs.mesh_dir, &linearize_dir = inputs.linearize_dir;
   Timer timer;
   ObserveSummary summary;
   const Reconstruction model = Reconstruction::Read(JoinPath(sfm_dir, "sparse"));
   TriangleMesh mesh = ReadMesh(JoinPath(mesh_dir, "mesh.ply"));
   if (mesh.empty()) RELIGHT_USER_ERROR() << "'" << mesh_dir << "/mesh.ply' has no faces; check the mesh stage";
   if (mesh.normals.size() != mesh.num_vertices()) mesh.ComputeVertexNormals();
+  summary.vertices = mesh.num_vertices();
   TriangleMesh occluders;
   const std::string occluders_path = JoinPath(mesh_dir, "occluders.ply");
   if (fs::exists(occluders_path)) occluders = ReadMesh(occluders_path);
@@ -466,11 +477,6 @@ ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_
   coverage["reused_photos"] = summary.reused_photos;
   coverage["seconds"] = summary.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "coverage.json"), coverage);
-  RLOG_INFO("{} observations of {} vertices in {} photos ({} vertices unobserved; {} footprints with clipped pixels, "
-            "{} of them kept as lower bounds in {} of their {} channels) in {:.1f} s",
-            summary.observations, mesh.num_vertices(), summary.photos, summary.unobserved_vertices,
-            summary.clipped_footprints, summary.lower_bounds, summary.lower_bound_channels, 3 * summary.lower_bounds,
-            summary.seconds);
   if (summary.unobserved_vertices > mesh.num_vertices() / 2) {
     RLOG_WARN("more than half of the vertices are seen in no photo; is the mesh in the SfM frame?");
   }

@@ -82,6 +82,7 @@ std::vector<Observation> ObservePhoto(const TriangleMesh& mesh, const std::vecto
 
 struct ObserveSummary {
   int photos = 0;
+  size_t vertices = 0;             // of the mesh
   int reused_photos = 0;           // finished by an earlier, killed run
   size_t observations = 0;
   size_t unobserved_vertices = 0;  // vertices with no exact observation (lower bounds do not count)
@@ -89,14 +90,21 @@ struct ObserveSummary {
   size_t lower_bounds = 0;         // of those, kept as lower bounds (all photos)
   size_t lower_bound_channels = 0; // their channels that are bounds (the others measure)
   double seconds = 0;
+
+  // One paragraph for the log.
+  std::string BriefReport() const;
 };
 
 // Runs the stage: reads <sfm>/sparse, <mesh>/mesh.ply (+ occluders.ply),
 // <linearize>/linear and confidence; writes observations.bin, photos.json,
 // coverage.json into `output_dir`. With an active `shard` (one pass: step 0) only that shard's photos go
 // into per_photo/, and nothing else is written.
-ObserveSummary RunObserve(const ObserveOptions& options, const std::string& sfm_dir, const std::string& mesh_dir,
-                          const std::string& linearize_dir, const std::string& output_dir,
+struct ObserveInputs {
+  std::string sfm_dir;        // the sfm stage's folder
+  std::string mesh_dir;       // the mesh stage's folder
+  std::string linearize_dir;  // the linearize stage's folder
+};
+ObserveSummary RunObserve(const ObserveOptions& options, const ObserveInputs& inputs, const std::string& output_dir,
                           const ShardSpec& shard = {});
 
 }  // namespace relight

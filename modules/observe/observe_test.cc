@@ -644,7 +644,7 @@ TEST_F(ObserveTest, StageRunsOnAWorkspaceAndResumes) {
   model.WriteBinary(dir / "sfm/sparse");
   WriteMeshPly(dir / "mesh/mesh.ply", Grid(15));
   options_.footprint_scale = 1.5;  // not the default, so photos.json must record it
-  const ObserveSummary s = RunObserve(options_, dir / "sfm", dir / "mesh", dir / "lin", dir / "out");
+  const ObserveSummary s = RunObserve(options_, {dir / "sfm", dir / "mesh", dir / "lin"}, dir / "out");
   EXPECT_EQ(s.photos, 3);
   EXPECT_EQ(s.reused_photos, 0);
   const ObservationSet set = ReadObservations(dir / "out/observations.bin");
@@ -657,7 +657,7 @@ TEST_F(ObserveTest, StageRunsOnAWorkspaceAndResumes) {
   EXPECT_TRUE(photos[1].pose.ProjectionCenter().isApprox(Eigen::Vector3d(0, 0.4, 3.0), 1e-9));
   // The footprint the inverse stage's transport rows average over.
   EXPECT_DOUBLE_EQ(ReadObservedFootprintScale(dir / "out/photos.json"), 1.5);
-  const ObserveSummary again = RunObserve(options_, dir / "sfm", dir / "mesh", dir / "lin", dir / "out");
+  const ObserveSummary again = RunObserve(options_, {dir / "sfm", dir / "mesh", dir / "lin"}, dir / "out");
   EXPECT_EQ(again.reused_photos, 3);
   EXPECT_EQ(again.observations, s.observations);
 }

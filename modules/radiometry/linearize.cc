@@ -86,8 +86,14 @@ LinearImage Linearize(const Image& encoded, bool is_float, const LinearizeOption
   return out;
 }
 
-LinearizeSummary RunLinearize(const LinearizeOptions& options, const std::string& ingest_dir,
+std::string LinearizeSummary::BriefReport() const {
+  return fmt::format("linearize: {} photos ({} from an earlier run); exposure {}; {}", photos, reused,
+                     exposure_normalized ? "normalised" : "as recorded", Progress::FormatSeconds(seconds));
+}
+
+LinearizeSummary RunLinearize(const LinearizeOptions& options, const LinearizeInputs& inputs,
                               const std::string& output_dir, const ShardSpec& shard) {
+  const std::string& ingest_dir = inputs.ingest_dir;
   Timer timer;
   const IngestSummary manifest = ReadIngestManifest(ingest_dir);
   if (manifest.photos.empty()) RELIGHT_USER_ERROR() << "'" << ingest_dir << "/manifest.json' lists no photos";
@@ -182,7 +188,6 @@ LinearizeSummary RunLinearize(const LinearizeOptions& options, const std::string
   summary.seconds = timer.Seconds();
   j["seconds"] = summary.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "linearize_summary.json"), j);
-  RLOG_INFO("linearized {} photos ({} reused) in {:.1f} s", summary.photos, summary.reused, summary.seconds);
   return summary;
 }
 

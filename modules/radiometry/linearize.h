@@ -42,6 +42,9 @@ struct LinearizeSummary {
   bool exposure_normalized = false;
   std::string exposure_note;  // why exposure normalisation was or was not applied
   double seconds = 0;
+
+  // One line for the log.
+  std::string BriefReport() const;
 };
 
 // Runs the stage on an ingest output folder; writes linear/, confidence/,
@@ -50,7 +53,10 @@ struct LinearizeSummary {
 // and above which a channel of linear/ was over-exposed, null for float inputs;
 // `observe` uses it to tell which channels of a clipped footprint clipped.
 // With an active `shard` (one pass: step 0) only that shard's photos, and no summary.
-LinearizeSummary RunLinearize(const LinearizeOptions& options, const std::string& ingest_dir,
+struct LinearizeInputs {
+  std::string ingest_dir;  // the ingest stage's folder
+};
+LinearizeSummary RunLinearize(const LinearizeOptions& options, const LinearizeInputs& inputs,
                               const std::string& output_dir, const ShardSpec& shard = {});
 
 }  // namespace relight

@@ -98,7 +98,8 @@ TEST(LinearizeTest, StageWritesOutputsNormalizesExposureAndResumes) {
   // PNG has no EXIF: write the manifest's exposure by hand through ingest, then patch it.
   IngestOptions ingest_options;
   ingest_options.min_image_side = 8;  // tiny test photos
-  RunIngest(ingest_options, dir / "photos", "", dir / "ingest");
+  ingest_options.images = dir / "photos";
+  RunIngest(ingest_options, {}, dir / "ingest");
   Json manifest = ReadJsonFile(dir / "ingest/manifest.json");
   for (int k = 0; k < 3; ++k) {
     manifest["photos"][k]["exif"]["exposure_time_s"] = k == 1 ? 0.02 : 0.01;
@@ -107,7 +108,7 @@ TEST(LinearizeTest, StageWritesOutputsNormalizesExposureAndResumes) {
   }
   WriteJsonAtomic(dir / "ingest/manifest.json", manifest);
 
-  const LinearizeSummary s = RunLinearize(LinearizeOptions{}, dir / "ingest", dir / "out");
+  const LinearizeSummary s = RunLinearize(LinearizeOptions{}, {dir / "ingest"}, dir / "out");
   EXPECT_TRUE(s.exposure_normalized);
   EXPECT_EQ(s.reused, 0);
   const Image a = ReadImage(dir / "out/linear/p0.exr");
@@ -123,7 +124,7 @@ TEST(LinearizeTest, StageWritesOutputsNormalizesExposureAndResumes) {
 
   // A rerun (as after a killed run) reuses every finished photo.
   fs::remove(dir / "out/linear/p2.exr");
-  const LinearizeSummary again = RunLinearize(LinearizeOptions{}, dir / "ingest", dir / "out");
+  const LinearizeSummary again = RunLinearize(LinearizeOptions{}, {dir / "ingest"}, dir / "out");
   EXPECT_EQ(again.reused, 2);
   EXPECT_TRUE(fs::exists(dir / "out/linear/p2.exr"));
   EXPECT_EQ(ReadJsonFile(dir / "out/linearize_summary.json")["photos"].size(), 3u);

@@ -339,7 +339,7 @@ std::string RelightSummary::BriefReport() const {
   std::map<std::string, int> per_kind;
   for (const auto& r : renders) ++per_kind[r.kind];
   std::ostringstream s;
-  s << renders.size() << " images (";
+  s << "relight: " << renders.size() << " images (";
   bool first = true;
   for (const auto& [kind, n] : per_kind) {
     s << (first ? "" : ", ") << n << " " << kind;
@@ -918,7 +918,6 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   summary.seconds = total.Seconds();
   WriteJsonAtomic(JoinPath(output_dir, "relight_summary.json"), summary.ToJson());
   for (const auto& note : summary.notes) RLOG_INFO("note: {}", note);
-  RLOG_INFO("relight: {}", summary.BriefReport());
   return summary;
 }
 

@@ -900,15 +900,30 @@ class ReportBuilder {
 
 }  // namespace
 
-ReportSummary RunReport(const ReportOptions& options, const std::map<std::string, std::string>& inputs,
-                        const std::string& output_dir) {
+std::map<std::string, std::string> ReportInputs::ByStage() const {
+  std::map<std::string, std::string> by_stage;
+  const std::pair<const char*, const std::string*> all[] = {
+      {"ingest", &ingest_dir},   {"sfm", &sfm_dir},         {"mesh", &mesh_dir},       {"linearize", &linearize_dir},
+      {"observe", &observe_dir}, {"inverse", &inverse_dir}, {"relight", &relight_dir}, {"evaluate", &evaluate_dir}};
+  for (const auto& [stage, dir] : all) {
+    if (!dir->empty()) by_stage[stage] = *dir;
+  }
+  return by_stage;
+}
+
+std::string ReportSummary::BriefReport() const {
+  std::string s = fmt::format("report: {} images, {} charts, {}", images, charts, page);
+  for (const auto& note : notes) s += "; note: " + note;
+  return s + "; " + Progress::FormatSeconds(seconds);
+}
+
+ReportSummary RunReport(const ReportOptions& options, const ReportInputs& inputs, const std::string& output_dir) {
   options.Check();
-  ReportBuilder builder(options, inputs, output_dir);
+  const std::map<std::string, std::string> by_stage = inputs.ByStage();
+  ReportBuilder builder(options, by_stage, output_dir);
   builder.Build();
-  const ReportSummary summary = builder.summary();
-  for (const auto& note : summary.notes) RLOG_INFO("note: {}", note);
-  RLOG_INFO("report: {} images, {} charts, {}; {}", summary.images, summary.charts, JoinPath(output_dir, "index.html"),
-            Progress::FormatSeconds(summary.seconds));
+  ReportSummary summary = builder.summary();
+  summary.page = JoinPath(output_dir, "index.html");
   return summary;
 }
 

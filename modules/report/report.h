@@ -28,13 +28,22 @@ struct ReportSummary {
   int images = 0;                  // images copied into the report folder and shown
   int charts = 0;                  // charts drawn
   std::vector<std::string> notes;  // sections left out and why; chart failures
+  std::string page;                // index.html
   double seconds = 0;
+
+  // One line for the log.
+  std::string BriefReport() const;
 };
 
-// Writes index.html, metrics.json (when `evaluate` ran), images/ and charts/ into `output_dir` from the
-// upstream stage folders in `inputs` (stage name -> folder; any subset of ingest, sfm, mesh, linearize,
-// observe, inverse, relight, evaluate).
-ReportSummary RunReport(const ReportOptions& options, const std::map<std::string, std::string>& inputs,
-                        const std::string& output_dir);
+// The upstream stage folders the report is built from; any may be empty (its sections are left out).
+struct ReportInputs {
+  std::string ingest_dir, sfm_dir, mesh_dir, linearize_dir, observe_dir, inverse_dir, relight_dir, evaluate_dir;
+
+  // Stage name -> folder, the non-empty ones.
+  std::map<std::string, std::string> ByStage() const;
+};
+
+// Writes index.html, metrics.json (when `evaluate` ran), images/ and charts/ into `output_dir`.
+ReportSummary RunReport(const ReportOptions& options, const ReportInputs& inputs, const std::string& output_dir);
 
 }  // namespace relight

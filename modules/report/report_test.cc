@@ -51,7 +51,7 @@ TEST(Report, PageWithoutUpstreamOutputs) {
   InitLogging("report_test", "", LogLevel::kWarning);
   testing::TempDir dir;
   ReportOptions o;
-  const ReportSummary s = RunReport(o, {}, dir.path());
+  const ReportSummary s = RunReport(o, ReportInputs{}, dir.path());
   const std::string page = ReadFileToString(dir / "index.html");
   EXPECT_NE(page.find("id=\"selfcheck\""), std::string::npos);
   EXPECT_NE(page.find("the evaluate stage did not run"), std::string::npos);
@@ -79,9 +79,11 @@ TEST(Report, CamerasAndGeometrySection) {
                   R"({"photos": [{"name": "a.png", "file": "images/a.png", "linear": false}]})");
   WriteFileAtomic(dir / "mesh/views.json",
                   R"({"views": [{"photo": "a.png", "mesh": "views/a_mesh.png", "points": "views/a_points.png"}]})");
-  const ReportSummary s =
-      RunReport(ReportOptions(), {{"sfm", dir / "sfm"}, {"mesh", dir / "mesh"}, {"ingest", dir / "ingest"}},
-                dir / "out");
+  ReportInputs inputs;
+  inputs.ingest_dir = dir / "ingest";
+  inputs.sfm_dir = dir / "sfm";
+  inputs.mesh_dir = dir / "mesh";
+  const ReportSummary s = RunReport(ReportOptions(), inputs, dir / "out");
   const std::string page = ReadFileToString(dir / "out/index.html");
   EXPECT_NE(page.find("id=\"geometry\""), std::string::npos);
   EXPECT_NE(page.find("2 of 3 photos registered"), std::string::npos);

@@ -1663,7 +1663,6 @@ SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, cons
   }
   summary.seconds = timer.Seconds();
   WriteSfmSummary(summary, JoinPath(output_dir, "sfm_summary.json"));
-  RLOG_INFO("{}", summary.BriefReport());
   return summary;
 }
 

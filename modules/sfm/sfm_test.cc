@@ -34,8 +34,9 @@ IngestSummary Ingest(const std::string& photo_dir, const std::string& ingest_dir
   IngestOptions options;
   options.drop_duplicates = false;
   options.min_photos = min_photos;
+  options.images = photo_dir;
   fs::create_directories(ingest_dir);
-  return RunIngest(options, photo_dir, "", ingest_dir);
+  return RunIngest(options, {}, ingest_dir);
 }
 
 Image NoiseImage(int width, int height, uint32_t seed) {
@@ -215,8 +216,10 @@ TEST(SfmGroundTruth, CopiesTheCamerasAndBuildsTheDenseWorkspace) {
   IngestOptions ingest;
   ingest.drop_duplicates = false;
   ingest.max_image_size = 320;
+  ingest.images = dir / "photos";
+  ingest.ground_truth = dir / "gt";
   fs::create_directories(dir / "ingest");
-  RunIngest(ingest, dir / "photos", dir / "gt", dir / "ingest");
+  RunIngest(ingest, {}, dir / "ingest");
 
   SfmOptions options;
   options.mode = "ground_truth";

@@ -1163,10 +1163,21 @@ InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir
   const LightingStats stats = WriteLighting(o, problem, result, output_dir);
   WriteReflectance(problem.mesh, result.reflectance, output_dir);
   WriteSolveSummary(o, problem, result, stats, output_dir);
-  const InverseSummary& s = result.summary;
-  RLOG_INFO("inverse: {} iterations ({}), best {}, {:.1f} s", s.iterations.size(), s.stop_reason, s.best_iteration,
-            s.seconds);
-  return s;
+  return result.summary;
+}
+
+std::string InverseSummary::BriefReport() const {
+  std::string s = fmt::format("inverse: model {}, {} iterations ({}), best {}", chosen_model, iterations.size(),
+                              stop_reason, best_iteration);
+  for (const IterationRecord& r : iterations) {
+    if (r.iteration == best_iteration) {
+      s += fmt::format(" (RMSE train {:.4g}, held out {:.4g})", r.train_rmse, r.holdout_rmse);
+    }
+  }
+  s += fmt::format("; {} training and {} held-out observations", train_observations, holdout_observations);
+  if (interreflection_mean_sources > 0)
+    s += fmt::format("; the bounce {:.1f} % of the diffuse light", 100 * interreflection_share);
+  return s + "; " + Progress::FormatSeconds(seconds);
 }
 
 }  // namespace relight

@@ -119,6 +119,9 @@ struct InverseSummary {
   std::string chosen_model;                // the model of the final solve
   double selection_seconds = 0;
   double seconds = 0;
+
+  // One paragraph for the log.
+  std::string BriefReport() const;
 };
 
 struct InverseResult {

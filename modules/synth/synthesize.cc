@@ -216,7 +216,7 @@ Scene::Surface MakeTransientOccluder(const SyntheticScene& scene, const Syntheti
 
 std::string SynthesizeSummary::BriefReport() const {
   std::ostringstream s;
-  s << num_photos << " photos under " << num_lightings << " lighting conditions (" << num_transient
+  s << "synthesize: " << num_photos << " photos under " << num_lightings << " lighting conditions (" << num_transient
     << " with a transient occluder), " << num_relight_renders << " relighting references; object " << object_vertices
     << " vertices, occluders " << occluder_vertices << " vertices; scene " << Progress::FormatSeconds(seconds_scene)
     << ", lighting " << Progress::FormatSeconds(seconds_lighting) << ", photos "
@@ -505,7 +505,6 @@ SynthesizeSummary RunSynthesize(const SynthesizeOptions& o, const std::string& o
   summary.seconds_relight = timer.Seconds();
   summary.seconds_total = total.Seconds();
   WriteJsonAtomic(JoinPath(output_dir, "summary.json"), summary.ToJson());
-  RLOG_INFO("{}", summary.BriefReport());
   return summary;
 }
 

@@ -210,8 +210,17 @@ void BakeVisibilityMaps(const TriangleMesh& mesh, const RayCaster& caster, const
   });
 }
 
-VisibilitySummary RunVisibility(const VisibilityOptions& options, const std::string& mesh_dir,
+std::string VisibilitySummary::BriefReport() const {
+  return fmt::format(
+      "visibility: {} vertices, {:.1f} coefficients per vertex, {:.0f} % of the hemisphere open, "
+      "{:.1f} Mrays/s ({} chunks from an earlier run); {}",
+      vertices, mean_coefficients, 100 * mean_open_fraction, rays_per_second / 1e6, reused_chunks,
+      Progress::FormatSeconds(seconds));
+}
+
+VisibilitySummary RunVisibility(const VisibilityOptions& options, const VisibilityInputs& inputs,
                                 const std::string& output_dir) {
+  const std::string& mesh_dir = inputs.mesh_dir;
   Timer timer;
   VisibilitySummary summary;
   TriangleMesh mesh = ReadMesh(JoinPath(mesh_dir, "mesh.ply"));
@@ -291,9 +300,6 @@ VisibilitySummary RunVisibility(const VisibilityOptions& options, const std::str
   j["reused_chunks"] = summary.reused_chunks;
   j["seconds"] = summary.seconds;
   WriteJsonAtomic(JoinPath(output_dir, "visibility_summary.json"), j);
-  RLOG_INFO("visibility: {} vertices, {:.1f} coefficients per vertex, {:.0f} open, {:.1f} Mrays/s, {:.1f} s",
-            summary.vertices, summary.mean_coefficients, 100 * summary.mean_open_fraction,
-            summary.rays_per_second / 1e6, summary.seconds);
   return summary;
 }
 

@@ -59,10 +59,16 @@ struct VisibilitySummary {
   double rays_per_second = 0;
   int reused_chunks = 0;
   double seconds = 0;
+
+  // One line for the log.
+  std::string BriefReport() const;
 };
 
 // Runs the stage: <mesh>/mesh.ply (+ occluders.ply) -> visibility.bin, visibility_summary.json.
-VisibilitySummary RunVisibility(const VisibilityOptions& options, const std::string& mesh_dir,
+struct VisibilityInputs {
+  std::string mesh_dir;  // the mesh stage's folder
+};
+VisibilitySummary RunVisibility(const VisibilityOptions& options, const VisibilityInputs& inputs,
                                 const std::string& output_dir);
 
 }  // namespace relight

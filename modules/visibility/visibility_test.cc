@@ -96,7 +96,7 @@ TEST(VisibilityTest, StageWritesSparseHaarAndResumes) {
   o.resolution = 16;
   o.chunk_vertices = 100;
   o.keep_energy = 1.0;
-  const VisibilitySummary s = RunVisibility(o, dir / "mesh", dir / "out");
+  const VisibilitySummary s = RunVisibility(o, {dir / "mesh"}, dir / "out");
   EXPECT_EQ(s.vertices, mesh.num_vertices());
   const VisibilityData data = ReadVisibility(dir / "out/visibility.bin");
   ASSERT_EQ(data.per_vertex.size(), mesh.num_vertices());
@@ -119,7 +119,7 @@ TEST(VisibilityTest, StageWritesSparseHaarAndResumes) {
 
   // Truncation keeps the stated share of the energy.
   o.keep_energy = 0.99;
-  RunVisibility(o, dir / "mesh", dir / "out2");
+  RunVisibility(o, {dir / "mesh"}, dir / "out2");
   const VisibilityData trunc = ReadVisibility(dir / "out2/visibility.bin");
   double err = 0, total = 0;
   for (size_t v = 0; v < mesh.num_vertices(); v += 7) {

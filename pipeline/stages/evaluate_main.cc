@@ -15,6 +15,6 @@ int main(int argc, char** argv) {
         inputs.visibility_dir = input("visibility");
         inputs.inverse_dir = input("inverse");
         inputs.relight_dir = input("relight");
-        RunEvaluate(options, inputs, ctx.output_dir);
+        return RunEvaluate(options, inputs, ctx.output_dir);
       });
 }

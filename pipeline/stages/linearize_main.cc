@@ -5,6 +5,6 @@ int main(int argc, char** argv) {
   using namespace relight;
   return StageMain<LinearizeOptions>(argc, argv, kLinearizeStage,
                                      [](const LinearizeOptions& options, const StageContext& ctx) {
-                                       RunLinearize(options, ctx.Input("ingest"), ctx.output_dir, ctx.shard);
+                                       return RunLinearize(options, {ctx.Input("ingest")}, ctx.output_dir, ctx.shard);
                                      });
 }

@@ -8,6 +8,6 @@ int main(int argc, char** argv) {
     if (ctx.HasInput("ingest")) inputs.ingest_dir = ctx.Input("ingest");
     if (ctx.HasInput("sfm")) inputs.sfm_dir = ctx.Input("sfm");
     if (ctx.HasInput("mvs")) inputs.mvs_dir = ctx.Input("mvs");
-    RunMesh(options, inputs, ctx.output_dir);
+    return RunMesh(options, inputs, ctx.output_dir);
   });
 }

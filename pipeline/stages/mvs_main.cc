@@ -4,6 +4,6 @@
 int main(int argc, char** argv) {
   using namespace relight;
   return StageMain<MvsOptions>(argc, argv, kMvsStage, [](const MvsOptions& options, const StageContext& ctx) {
-    RunMvs(options, ctx.Input("sfm"), ctx.output_dir, ctx.shard);
+    return RunMvs(options, {ctx.Input("sfm")}, ctx.output_dir, ctx.shard);
   });
 }

@@ -11,6 +11,6 @@ int main(int argc, char** argv) {
                                      inputs.mesh_dir = ctx.HasInput("mesh") ? ctx.Input("mesh") : "";
                                      inputs.inverse_dir = ctx.Input("inverse");
                                      inputs.visibility_dir = ctx.HasInput("visibility") ? ctx.Input("visibility") : "";
-                                     RunRelight(options, inputs, ctx.output_dir, ctx.shard);
+                                     return RunRelight(options, inputs, ctx.output_dir, ctx.shard);
                                    });
 }

@@ -4,6 +4,6 @@
 int main(int argc, char** argv) {
   using namespace relight;
   return StageMain<SfmOptions>(argc, argv, kSfmStage, [](const SfmOptions& options, const StageContext& ctx) {
-    RunSfm(options, ctx.Input("ingest"), ctx.output_dir, ctx.threads);
+    return RunSfm(options, ctx.Input("ingest"), ctx.output_dir, ctx.threads);
   });
 }

@@ -5,5 +5,5 @@ int main(int argc, char** argv) {
   using namespace relight;
   return StageMain<SynthesizeOptions>(
       argc, argv, kSynthesizeStage,
-      [](const SynthesizeOptions& options, const StageContext& ctx) { RunSynthesize(options, ctx.output_dir); });
+      [](const SynthesizeOptions& options, const StageContext& ctx) { return RunSynthesize(options, ctx.output_dir); });
 }

@@ -5,6 +5,6 @@ int main(int argc, char** argv) {
   using namespace relight;
   return StageMain<VisibilityOptions>(argc, argv, kVisibilityStage,
                                       [](const VisibilityOptions& options, const StageContext& ctx) {
-                                        RunVisibility(options, ctx.Input("mesh"), ctx.output_dir);
+                                        return RunVisibility(options, {ctx.Input("mesh")}, ctx.output_dir);
                                       });
 }
