@@ -123,7 +123,7 @@ DiligentScene ImportDiligent(const std::string& folder, const std::string& outpu
     model.images[im.image_id] = im;
   }
   model.WriteText(gt);
-  WriteMeshPly(JoinPath(gt, "mesh.ply"), MakeIcosphere(options.sphere_subdivisions));
+  WriteMeshPly(JoinPath(gt, "mesh.ply"), MakeOctasphere(options.sphere_subdivisions));
 
   Json lights = Json::array();
   for (size_t i = 0; i < names.size(); ++i) {

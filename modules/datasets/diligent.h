@@ -20,7 +20,7 @@
 namespace relight {
 
 struct DiligentImportOptions {
-  int sphere_subdivisions = 5;     // icosphere levels of the fitted ball (5: 10242 vertices)
+  int sphere_subdivisions = 5;     // subdivision levels of the octahedral sphere fitted to the ball (5: 4098 vertices)
   double camera_distance = 100.0;  // in sphere radii
 };
 

@@ -57,7 +57,7 @@ TEST(MeshDistance, SphereSamplesToAConcentricSphere) {
   // 1.1: each distance is in [1.1 h - 1, 1.1 - h] = 0.1 + [-1.1 s, s] with
   // s = 1 - h (9.8e-4 for 5 levels), so the mean is 0.1 within 1.1 s; the
   // stated tolerance on it is 1e-3 (observed: 0.09993).
-  const TriangleMesh inner = MakeIcosphere(5);
+  const TriangleMesh inner = MakeOctasphere(5);
   TriangleMesh outer = inner;
   for (auto& v : outer.vertices) v *= 1.1f;
   double h = 1;

@@ -19,45 +19,11 @@
 namespace relight {
 namespace {
 
-// Icosphere of radius 1 (level 4: 2562 vertices, level 5: 10242).
-TriangleMesh Icosphere(int level) {
-  TriangleMesh m;
-  const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
-  for (auto v :
-       {Eigen::Vector3f(-1, t, 0), Eigen::Vector3f(1, t, 0), Eigen::Vector3f(-1, -t, 0), Eigen::Vector3f(1, -t, 0),
-        Eigen::Vector3f(0, -1, t), Eigen::Vector3f(0, 1, t), Eigen::Vector3f(0, -1, -t), Eigen::Vector3f(0, 1, -t),
-        Eigen::Vector3f(t, 0, -1), Eigen::Vector3f(t, 0, 1), Eigen::Vector3f(-t, 0, -1), Eigen::Vector3f(-t, 0, 1)}) {
-    m.vertices.push_back(v.normalized());
-  }
-  m.faces = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-             {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-             {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
-  for (int l = 0; l < level; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      auto key = std::minmax(a, b);
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      m.vertices.push_back((m.vertices[a] + m.vertices[b]).normalized());
-      return mid[key] = static_cast<int>(m.vertices.size()) - 1;
-    };
-    std::vector<Eigen::Vector3i> faces;
-    for (const auto& f : m.faces) {
-      const int a = midpoint(f[0], f[1]), b = midpoint(f[1], f[2]), c = midpoint(f[2], f[0]);
-      faces.push_back({f[0], a, c});
-      faces.push_back({f[1], b, a});
-      faces.push_back({f[2], c, b});
-      faces.push_back({a, b, c});
-    }
-    m.faces = faces;
-  }
-  return m;
-}
-
 // Adds what real reconstructions contain: radial noise, holes, floating
 // fragments, a non-manifold fin, duplicate vertices, degenerate faces, and
 // some faces with flipped orientation.
 void Damage(TriangleMesh* m, bool holes, uint32_t seed) {
+  m->normals.clear();  // a reconstruction's soup has none
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> noise(-0.004f, 0.004f);
   for (auto& v : m->vertices) v *= 1.0f + noise(rng);
@@ -126,7 +92,7 @@ double MaxRadialError(const TriangleMesh& m) {
 }
 
 TEST(MeshCleanup, DamagedSphereBecomesOneClosedManifoldWithTheRequestedVertexCount) {
-  TriangleMesh input = Icosphere(5);
+  TriangleMesh input = MakeIcosphere(5);
   Damage(&input, /*holes=*/true, 1);
   ASSERT_FALSE(FindManifoldViolation(input).empty());
   ASSERT_GT(CountComponents(input), 6);
@@ -156,7 +122,7 @@ TEST(MeshCleanup, InvalidInputIsRepairedBeforeRemeshing) {
   // vertex, a face with an index out of range and a zero-area face, cleaned with hole filling as loose as
   // configs/temple.yaml's. The result must be a finite manifold near the sphere, and the summary must count
   // what was removed.
-  TriangleMesh input = Icosphere(4);
+  TriangleMesh input = MakeIcosphere(4);
   const int n = static_cast<int>(input.vertices.size());
   input.vertices[0] *= -1.3f;  // its fan now spans the sphere and pierces the far side
   input.vertices.emplace_back(std::nanf(""), 0.0f, 0.0f);
@@ -178,7 +144,7 @@ TEST(MeshCleanup, InvalidInputIsRepairedBeforeRemeshing) {
 }
 
 TEST(MeshCleanup, InwardSphereIsTurnedOutward) {
-  TriangleMesh input = Icosphere(4);
+  TriangleMesh input = MakeIcosphere(4);
   for (auto& f : input.faces) std::swap(f[1], f[2]);
   MeshCleanupOptions options;
   options.target_vertices = 2000;
@@ -190,7 +156,7 @@ TEST(MeshCleanup, InwardSphereIsTurnedOutward) {
 }
 
 TEST(MeshCleanup, DecimationReachesTheVertexBudget) {
-  TriangleMesh input = Icosphere(5);
+  TriangleMesh input = MakeIcosphere(5);
   Damage(&input, /*holes=*/false, 2);
   MeshCleanupOptions options;
   options.target_vertices = 2500;
@@ -207,8 +173,8 @@ TEST(MeshCleanup, ComponentsRankByTheDataNearThemNotByArea) {
   // A unit sphere (area 12.6) and, beside it, a larger sphere of radius 2
   // (area 50) with no data near it: the Poisson underside of a cropped ground
   // sheet is such a part. The data points lie on the unit sphere.
-  TriangleMesh input = Icosphere(3);
-  const TriangleMesh big = Icosphere(3);
+  TriangleMesh input = MakeIcosphere(3);
+  const TriangleMesh big = MakeIcosphere(3);
   const int offset = static_cast<int>(input.vertices.size());
   for (const auto& v : big.vertices) input.vertices.push_back(2.0f * v + Eigen::Vector3f(6, 0, 0));
   for (const auto& f : big.faces) input.faces.push_back(f + Eigen::Vector3i::Constant(offset));
@@ -242,7 +208,7 @@ TEST(MeshCleanup, ComponentsRankByTheDataNearThemNotByArea) {
 
 // Upper hemisphere (z > 0) of a damaged sphere: an open, bounded surface.
 TriangleMesh DamagedDome(bool inward) {
-  TriangleMesh sphere = Icosphere(5);
+  TriangleMesh sphere = MakeIcosphere(5);
   std::vector<Eigen::Vector3i> faces;
   for (const auto& f : sphere.faces) {
     if (sphere.vertices[f[0]].z() > 0 && sphere.vertices[f[1]].z() > 0 && sphere.vertices[f[2]].z() > 0) {
@@ -325,7 +291,7 @@ TEST(MeshCleanup, StanfordBunny) {
 }
 
 TEST(MeshCrop, BoxAndViews) {
-  const TriangleMesh sphere = Icosphere(3);
+  const TriangleMesh sphere = MakeIcosphere(3);
   CropRegion region;
   region.use_box = true;
   region.box = Eigen::AlignedBox3d(Eigen::Vector3d(-2, -2, 0), Eigen::Vector3d(2, 2, 2));
@@ -387,7 +353,7 @@ TEST(MeshCrop, SparseBoxKeepsAnObjectStandingOnATexturedGround) {
 
 TEST(MeshCrop, DistanceToPoints) {
   // Data points only on the upper cap (z > 0.5): faces far from them go.
-  const TriangleMesh sphere = Icosphere(4);
+  const TriangleMesh sphere = MakeIcosphere(4);
   std::vector<Eigen::Vector3d> points;
   for (const auto& v : sphere.vertices) {
     if (v.z() > 0.5f) points.push_back(v.cast<double>());
@@ -415,7 +381,7 @@ TEST(MeshCrop, DistanceToPoints) {
 
 TEST(MeshStage, FileSourceEndToEnd) {
   testing::TempDir dir;
-  TriangleMesh input = Icosphere(5);
+  TriangleMesh input = MakeIcosphere(5);
   Damage(&input, true, 4);
   WriteMeshPly(dir / "noisy.ply", input, /*binary=*/false);
   MeshOptions options;
@@ -440,7 +406,7 @@ TEST(MeshStage, FileSourceEndToEnd) {
 TEST(MeshStage, GroundTruthIsPassedThroughWithItsProperties) {
   testing::TempDir dir;
   std::filesystem::create_directories(dir / "ingest/ground_truth");
-  TriangleMesh object = Icosphere(2);
+  TriangleMesh object = MakeIcosphere(2);
   auto& w0 = object.Property("w0");
   for (size_t i = 0; i < w0.size(); ++i) w0[i] = float(i) / w0.size();
   WriteMeshPly(dir / "ingest/ground_truth/mesh.ply", object);
@@ -489,7 +455,7 @@ TEST(MeshStage, ClearErrors) {
 // disc of radius f R / sqrt(d^2 - R^2) = 40.82 px; the clay render covers that disc and nothing else, and dots
 // of points on the sphere stay inside it.
 TEST(GeometryViews, SphereProjectsToItsClosedFormDisc) {
-  TriangleMesh sphere = MakeIcosphere(5);
+  TriangleMesh sphere = MakeOctasphere(5);
   for (auto& v : sphere.vertices) v += Eigen::Vector3f(0, 0, 5);  // camera at the origin looking along +z
   sphere.ComputeVertexNormals();
   const Camera camera = Camera::Pinhole(1, 200, 200, 200, 200, 100, 100);

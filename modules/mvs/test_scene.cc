@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "geometry/mesh_io.h"
+#include "geometry/primitives.h"
 #include "geometry/raycaster.h"
 #include "mvs/mesh_metrics.h"
 
@@ -49,33 +50,10 @@ Eigen::Vector3f Albedo(const Eigen::Vector3f& p) {
 }  // namespace
 
 TriangleMesh MakeBumpySphere(int subdivisions) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Eigen::Vector3d> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  std::vector<Eigen::Vector3i> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                                    {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                    {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                                    {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  for (auto& p : v) p.normalize();
-  for (int level = 0; level < subdivisions; ++level) {
-    std::map<std::pair<int, int>, int> midpoint;
-    const auto mid = [&](int a, int b) {
-      const std::pair<int, int> key(std::min(a, b), std::max(a, b));
-      const auto it = midpoint.find(key);
-      if (it != midpoint.end()) return it->second;
-      v.push_back((v[a] + v[b]).normalized());
-      return midpoint[key] = static_cast<int>(v.size()) - 1;
-    };
-    std::vector<Eigen::Vector3i> next;
-    for (const auto& tri : f) {
-      const int ab = mid(tri[0], tri[1]), bc = mid(tri[1], tri[2]), ca = mid(tri[2], tri[0]);
-      next.push_back({tri[0], ab, ca});
-      next.push_back({tri[1], bc, ab});
-      next.push_back({tri[2], ca, bc});
-      next.push_back({ab, bc, ca});
-    }
-    f = std::move(next);
-  }
+  const TriangleMesh sphere = MakeIcosphere(subdivisions);
+  std::vector<Eigen::Vector3d> v;
+  for (const auto& p : sphere.vertices) v.push_back(p.cast<double>());
+  const std::vector<Eigen::Vector3i>& f = sphere.faces;
   TriangleMesh mesh;
   for (const auto& d : v) {
     const double r = 1.0 + 0.12 * std::sin(3 * d.x() + 1) * std::cos(2 * d.y()) + 0.08 * std::sin(5 * d.z() + 2 * d.x());

@@ -7,38 +7,17 @@
 #include <utility>
 
 #include "geometry/mesh.h"
+#include "geometry/primitives.h"
 
 namespace relight::render_testing {
 
 // Icosphere of `radius` around `center` with `subdivisions` 1:4 splits; normals
 // point outwards (or inwards with `inward`), exactly radial at the vertices.
 inline TriangleMesh Icosphere(double radius, const Eigen::Vector3d& center, int subdivisions, bool inward = false) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Eigen::Vector3d> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  for (auto& p : v) p.normalize();
-  std::vector<Eigen::Vector3i> f = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                                    {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-                                    {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
-  for (int s = 0; s < subdivisions; ++s) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      v.push_back((v[a] + v[b]).normalized());
-      return mid[key] = int(v.size()) - 1;
-    };
-    std::vector<Eigen::Vector3i> g;
-    for (const auto& tri : f) {
-      const int a = midpoint(tri[0], tri[1]), b = midpoint(tri[1], tri[2]), c = midpoint(tri[2], tri[0]);
-      g.emplace_back(tri[0], a, c);
-      g.emplace_back(tri[1], b, a);
-      g.emplace_back(tri[2], c, b);
-      g.emplace_back(a, b, c);
-    }
-    f = std::move(g);
-  }
+  const TriangleMesh sphere = MakeIcosphere(subdivisions);
+  std::vector<Eigen::Vector3d> v;
+  for (const auto& p : sphere.vertices) v.push_back(p.cast<double>());
+  const std::vector<Eigen::Vector3i>& f = sphere.faces;
   TriangleMesh mesh;
   for (const auto& p : v) {
     mesh.vertices.push_back((center + radius * p).cast<float>());

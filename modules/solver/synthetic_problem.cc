@@ -59,7 +59,7 @@ TriangleMesh Blob(int vertices, double displacement) {
 
 SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
   SyntheticProblem s;
-  TriangleMesh mesh = o.vertices <= 4100 && o.displacement == 0 ? MakeIcosphere(5) : Blob(o.vertices, o.displacement);
+  TriangleMesh mesh = o.vertices <= 4100 && o.displacement == 0 ? MakeOctasphere(5) : Blob(o.vertices, o.displacement);
   for (auto& v : mesh.vertices) v.z() += 1.05f + static_cast<float>(o.displacement);
   mesh.ComputeVertexNormals();
   const int ground_cells = o.interreflection && o.ground_albedo > 0 ? 64 : 4;

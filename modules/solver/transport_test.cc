@@ -61,7 +61,7 @@ struct Comparison {
 // random vertices from three cameras; prediction vs the renderer.
 Comparison Compare(int resolution, int visibility_resolution = 0, int supersampling = 0, int phong_exponent = 40) {
   if (visibility_resolution == 0) visibility_resolution = resolution;
-  TriangleMesh sphere = MakeIcosphere(4);
+  TriangleMesh sphere = MakeOctasphere(4);
   for (auto& v : sphere.vertices) v.z() += 1.0f;
   sphere.ComputeVertexNormals();
   const int nv = static_cast<int>(sphere.num_vertices());
@@ -229,7 +229,7 @@ struct FootprintErrors {
 // `kernel`: every observation averages a disc `kernel` times the vertex's area
 // radius (Observation::kernel_scale), as `observe` reports for its pixels' width.
 FootprintErrors CompareFootprints(double kernel = 1.0) {
-  TriangleMesh sphere = MakeIcosphere(4);  // 2562 vertices, neighbouring normals about 4° apart
+  TriangleMesh sphere = MakeOctasphere(4);  // 1026 vertices, neighbouring normals about 5° apart
   for (auto& v : sphere.vertices) v.z() += 1.0f;
   sphere.ComputeVertexNormals();
   const int nv = static_cast<int>(sphere.num_vertices());

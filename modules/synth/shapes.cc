@@ -6,49 +6,12 @@
 #include <utility>
 
 #include "core/error.h"
+#include "geometry/primitives.h"
 #include "meshing/mesh_cleanup.h"
 #include "synth/noise.h"
 
 namespace relight {
 namespace {
-
-// Icosahedron subdivided `levels` times onto the unit sphere.
-TriangleMesh Icosphere(int levels) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Eigen::Vector3d> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  for (auto& p : v) p.normalize();
-  std::vector<Eigen::Vector3i> f = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                                    {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-                                    {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
-  for (int s = 0; s < levels; ++s) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      const auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      v.push_back((v[a] + v[b]).normalized());
-      return mid[key] = int(v.size()) - 1;
-    };
-    std::vector<Eigen::Vector3i> g;
-    g.reserve(f.size() * 4);
-    for (const auto& tri : f) {
-      const int a = midpoint(tri[0], tri[1]), b = midpoint(tri[1], tri[2]), c = midpoint(tri[2], tri[0]);
-      g.emplace_back(tri[0], a, c);
-      g.emplace_back(tri[1], b, a);
-      g.emplace_back(tri[2], c, b);
-      g.emplace_back(a, b, c);
-    }
-    f = std::move(g);
-  }
-  TriangleMesh mesh;
-  for (const auto& p : v) {
-    mesh.vertices.push_back(p.cast<float>());
-    mesh.normals.push_back(p.cast<float>());
-  }
-  mesh.faces = std::move(f);
-  return mesh;
-}
 
 int IcosphereLevels(int min_vertices) {
   int levels = 0;
@@ -58,7 +21,7 @@ int IcosphereLevels(int min_vertices) {
 
 }  // namespace
 
-TriangleMesh MakeSphere(int min_vertices) { return Icosphere(IcosphereLevels(min_vertices)); }
+TriangleMesh MakeSphere(int min_vertices) { return MakeIcosphere(IcosphereLevels(min_vertices)); }
 
 TriangleMesh MakeTorusKnot(int min_vertices) {
   // Curve of the (p, q) = (2, 3) torus knot on a torus of radii 2 and 1; tube radius 0.5.
@@ -97,7 +60,7 @@ TriangleMesh MakeTorusKnot(int min_vertices) {
 }
 
 TriangleMesh MakeBlob(int min_vertices, uint64_t seed) {
-  TriangleMesh mesh = Icosphere(IcosphereLevels(min_vertices));
+  TriangleMesh mesh = MakeIcosphere(IcosphereLevels(min_vertices));
   const GradientNoise noise(seed);
   for (auto& v : mesh.vertices) {
     const Eigen::Vector3d d = v.cast<double>();

@@ -94,7 +94,7 @@ TEST(BounceTest, NoBounceFromOccludersOrTheBackOfAFace) {
 }
 
 TEST(BounceTest, InsideAClosedSphereEveryDirectionBounces) {
-  TriangleMesh sphere = MakeIcosphere(3);
+  TriangleMesh sphere = MakeOctasphere(3);
   for (auto& f : sphere.faces) std::swap(f[1], f[2]);  // inward-facing
   sphere.ComputeVertexNormals();
   const RayCaster caster({&sphere});

@@ -70,7 +70,7 @@ TEST(VisibilityTest, VertexInsideClosedBoxIsFullyOccluded) {
 }
 
 TEST(VisibilityTest, CoarseConvexMeshHasNoSelfShadowAcne) {
-  const TriangleMesh sphere = MakeIcosphere(1);  // 18 vertices, very coarse
+  const TriangleMesh sphere = MakeOctasphere(1);  // 18 vertices, very coarse
   const RayCaster caster({&sphere});
   VisibilityOptions o;
   o.resolution = 16;
@@ -87,7 +87,7 @@ TEST(VisibilityTest, StageWritesSparseHaarAndResumes) {
   setenv("RELIGHT_PROGRESS", "off", 1);
   testing::TempDir dir;
   fs::create_directories(dir / "mesh");
-  TriangleMesh mesh = MakeIcosphere(3);
+  TriangleMesh mesh = MakeOctasphere(3);
   for (auto& v : mesh.vertices) v.z() += 1.05f;  // just above the ground
   mesh.ComputeVertexNormals();
   WriteMeshPly(dir / "mesh/mesh.ply", mesh);
