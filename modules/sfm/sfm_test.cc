@@ -221,7 +221,8 @@ TEST(SfmGroundTruth, CopiesTheCamerasAndBuildsTheDenseWorkspace) {
   SfmOptions options;
   options.mode = "ground_truth";
   fs::create_directories(dir / "sfm");
-  const SfmSummary summary = RunSfm(options, dir / "ingest", dir / "sfm");
+  // The stage's main resolves the mode to the cameras ingest carried along.
+  const SfmSummary summary = RunSfm(options, dir / "ingest", dir / "sfm", 0, dir / "ingest/ground_truth");
   EXPECT_EQ(summary.num_registered, 4);
   const Reconstruction model = Reconstruction::Read(dir / "sfm/sparse");
   ASSERT_EQ(model.images.size(), 4u);
