@@ -17,6 +17,8 @@
 #include "core/stats.h"
 #include "core/timer.h"
 #include "datasets/diligent.h"
+#include "datasets/ground_truth.h"
+#include "datasets/ground_truth_frame.h"
 #include "datasets/light_evaluation.h"
 #include "evaluate/envmap_metrics.h"
 #include "evaluate/image_metrics.h"
@@ -27,7 +29,6 @@
 #include "geometry/raycaster.h"
 #include "observe/observations.h"
 #include "relight/display.h"
-#include "relight/ground_truth_frame.h"
 #include "relight/relight.h"
 #include "relight/transport_render.h"
 #include "render/render_view.h"
@@ -252,7 +253,7 @@ struct EvaluateContext {
   const EvaluateInputs& inputs;
   const std::string& output_dir;
   const ImageCompareOptions compare;
-  std::string gt;                               // <ingest>/ground_truth; empty without the ingest stage
+  GroundTruth truth = GroundTruth::At("");      // the folder ingest carried along; none without the ingest stage
   bool has_gt = false;                          // that folder exists
   GroundTruthFrame frame;                       // the model's frame related to the ground truth's
   std::vector<RenderRecord> renders;            // relight's index; empty when the stage did not run
@@ -283,9 +284,9 @@ void StartOutputs(const EvaluateOptions& o, const std::string& output_dir, Order
 void RelateToTruth(EvaluateContext* ctx, OrderedJson* metrics) {
   OrderedJson& m = *metrics;
   const EvaluateInputs& in = ctx->inputs;
-  ctx->gt = in.ingest_dir.empty() ? "" : JoinPath(in.ingest_dir, "ground_truth");
-  ctx->has_gt = !ctx->gt.empty() && fs::is_directory(ctx->gt);
-  if (ctx->has_gt) ctx->frame = RelateToGroundTruth(in.sfm_dir, ctx->gt);
+  ctx->truth = GroundTruth::OfIngest(in.ingest_dir);
+  ctx->has_gt = ctx->truth.Exists();
+  if (ctx->has_gt) ctx->frame = RelateToGroundTruth(in.sfm_dir, ctx->truth);
   const GroundTruthFrame& frame = ctx->frame;
   m["ground_truth"] = ctx->has_gt;
   m["frame"] = {{"method", frame.available ? frame.method : "none"}, {"reason", frame.reason}};
@@ -331,7 +332,7 @@ Image RerenderMask(const EvaluateContext& ctx, const RenderRecord& r, uint32_t p
       ctx.options);
   // With the true object mask (synthetic scenes), score the object, as the held-out views do:
   // a reconstructed mesh also holds the ground around it.
-  const std::string object_mask_path = JoinPath(ctx.gt, "masks/" + fs::path(r.view).stem().string() + ".png");
+  const std::string object_mask_path = ctx.truth.MaskPath(fs::path(r.view).stem().string());
   *object_only = false;
   if (ctx.has_gt && IsFile(object_mask_path)) {
     const Image object_mask = ReadMask(object_mask_path);
@@ -433,24 +434,25 @@ struct HeldoutTruth {
   Reconstruction views;  // the held-out cameras
 };
 
-// Reads the suns of the held-out maps in `index` (<gt>/relight/index.json) and, when there is one, the true
-// geometry and held-out cameras into `truth`.
-void LoadHeldoutTruth(const std::string& gt, const Json& index, HeldoutTruth* truth) {
-  truth->dir = JoinPath(gt, "relight");
+// Reads the suns of the held-out maps of `heldout` (the ground truth's relight/index.json) and, when there is
+// one, the true geometry and held-out cameras into `truth`.
+void LoadHeldoutTruth(const GroundTruth& gt, const TrueHeldout& heldout, HeldoutTruth* truth) {
+  truth->dir = heldout.dir;
   // Shadow contrast under the held-out skies' suns, over regions from the true geometry.
-  if (index.contains("envmap_details"))
-    for (const auto& d : index.at("envmap_details"))
-      if (d.value("source", "") == "sky" && d.contains("sun_dir_world")) {
-        const auto v = d.at("sun_dir_world").get<std::vector<double>>();
-        truth->sun_by_envmap[d.at("name").get<std::string>()] = Eigen::Vector3d(v[0], v[1], v[2]);
-      }
-  if (!truth->sun_by_envmap.empty() && IsFile(JoinPath(gt, "mesh.ply"))) {
-    truth->object = ReadMesh(JoinPath(gt, "mesh.ply"));
-    if (IsFile(JoinPath(gt, "occluders.ply"))) truth->occluders = ReadMesh(JoinPath(gt, "occluders.ply"));
+  for (const auto& e : heldout.envmaps) {
+    const Json& d = e.details;
+    if (d.value("source", "") == "sky" && d.contains("sun_dir_world")) {
+      const auto v = d.at("sun_dir_world").get<std::vector<double>>();
+      truth->sun_by_envmap[e.name] = Eigen::Vector3d(v[0], v[1], v[2]);
+    }
+  }
+  if (!truth->sun_by_envmap.empty() && gt.HasMesh()) {
+    truth->object = ReadMesh(gt.MeshPath());
+    if (gt.HasOccluders()) truth->occluders = ReadMesh(gt.OccludersPath());
     std::vector<const TriangleMesh*> meshes{&truth->object};
     if (!truth->occluders.empty()) meshes.push_back(&truth->occluders);
     truth->caster = std::make_unique<RayCaster>(meshes);
-    truth->views = Reconstruction::Read(truth->dir);
+    truth->views = gt.ReadHeldoutCameras();
   }
 }
 
@@ -561,28 +563,26 @@ void ScoreHeldoutRender(const EvaluateContext& ctx, const HeldoutTruth& truth, c
 // shadow contrast under the maps' suns, into `metrics`; their figures into `figures`.
 void ScoreHeldout(const EvaluateContext& ctx, OrderedJson* metrics, OrderedJson* figures) {
   OrderedJson& m = *metrics;
-  const std::string dir = JoinPath(ctx.gt, "relight");
   std::string reason;
   if (!ctx.has_gt)
     reason = "no ground truth";
-  else if (!IsFile(JoinPath(dir, "index.json")))
+  else if (!ctx.truth.HasHeldout())
     reason = "the ground truth has no relight/index.json";
   else if (ctx.inputs.relight_dir.empty())
     reason = "the relight stage did not run";
   HeldoutScores scores;
   (*figures)["heldout"] = OrderedJson::array();
   if (reason.empty()) {
-    const Json index = ReadJsonFile(JoinPath(dir, "index.json"));
+    const TrueHeldout heldout = ctx.truth.ReadHeldout();
     std::map<std::string, const RenderRecord*> by_name;
     for (const auto& r : ctx.renders)
       if (r.kind == "heldout") by_name[r.name] = &r;
     HeldoutTruth truth;
-    LoadHeldoutTruth(ctx.gt, index, &truth);
-    for (const auto& e : index.at("renders")) {
-      const std::string name = e.at("view").get<std::string>() + "__" + e.at("envmap").get<std::string>();
-      auto it = by_name.find(name);
+    LoadHeldoutTruth(ctx.truth, heldout, &truth);
+    for (const auto& e : heldout.renders) {
+      auto it = by_name.find(e.view + "__" + e.envmap);
       if (it == by_name.end()) continue;
-      ScoreHeldoutRender(ctx, truth, e, *it->second, &scores, figures);
+      ScoreHeldoutRender(ctx, truth, e.entry, *it->second, &scores, figures);
     }
     if (scores.psnr.empty())
       reason =
@@ -622,14 +622,15 @@ struct EnvmapScores {
 // Scores photo `photo`'s recovered map (`oct`; `photo` is its <inverse>/lighting.json entry) against its true
 // map (`truth_photo`, the ground truth's lighting.json entry) in the truth's frame, over the upper hemisphere
 // when `upper`, into `scores`; writes the figures of both and lists them in `figure`.
-void ScoreEnvmap(const EvaluateContext& ctx, const Json& photo, const Json& truth_photo, const Image& oct, bool upper,
-                 OrderedJson* figure, EnvmapScores* scores) {
+void ScoreEnvmap(const EvaluateContext& ctx, const Json& photo, const TruePhotoLighting& true_lighting,
+                 const Image& oct, bool upper, OrderedJson* figure, EnvmapScores* scores) {
+  const Json& truth_photo = true_lighting.entry;
   const GroundTruthFrame& frame = ctx.frame;
   const Json& p = photo;
   const std::string name = p.at("name").get<std::string>(), base = "figures/envmaps/" + Stem(name);
   const int n = oct.width;
   const EnvMap recovered = EnvMap::FromOctahedral(oct);
-  const EnvMap truth = EnvMap::Load(JoinPath(ctx.gt, truth_photo.at("envmap_latlong").get<std::string>()));
+  const EnvMap truth = EnvMap::Load(true_lighting.envmap_latlong);
   const EnvMap recovered_truth_frame = frame.IsIdentity() ? recovered : frame.EnvToTruth(recovered);
   const Image est = frame.IsIdentity() ? oct : recovered_truth_frame.ToOctahedral(n);
   const Image tru = truth.ToOctahedral(n);
@@ -682,13 +683,13 @@ void ScoreEnvmap(const EvaluateContext& ctx, const Json& photo, const Json& trut
 void ScoreEnvmaps(const EvaluateContext& ctx, OrderedJson* metrics, OrderedJson* figures) {
   const EvaluateOptions& o = ctx.options;
   const EvaluateInputs& in = ctx.inputs;
-  const std::string& gt = ctx.gt;
+  const GroundTruth& gt = ctx.truth;
   const bool has_gt = ctx.has_gt;
   OrderedJson& m = *metrics;
   OrderedJson& fig = *figures;
   fig["envmaps"] = OrderedJson::array();
   const std::string lighting_path = in.inverse_dir.empty() ? "" : JoinPath(in.inverse_dir, "lighting.json");
-  const bool has_truth = has_gt && IsFile(JoinPath(gt, "lighting.json"));
+  const bool has_truth = has_gt && gt.HasLighting();
   std::string reason;
   if (!IsFile(lighting_path))
     reason = "the inverse stage did not run";
@@ -697,12 +698,10 @@ void ScoreEnvmaps(const EvaluateContext& ctx, OrderedJson* metrics, OrderedJson*
   else if (!ctx.frame.available)
     reason = "the model's frame could not be related to the ground truth: " + ctx.frame.reason;
   bool upper = o.envmap_region == "upper";
-  if (o.envmap_region == "auto") upper = has_gt && IsFile(JoinPath(gt, "occluders.ply"));
-  std::map<std::string, Json> truth_by_name;
-  if (has_truth) {
-    const Json truth_lighting = ReadJsonFile(JoinPath(gt, "lighting.json"));
-    for (const auto& p : truth_lighting.at("photos")) truth_by_name[p.at("name").get<std::string>()] = p;
-  }
+  if (o.envmap_region == "auto") upper = has_gt && gt.HasOccluders();
+  std::map<std::string, TruePhotoLighting> truth_by_name;
+  if (has_truth)
+    for (auto& p : gt.ReadLighting()) truth_by_name[p.name] = std::move(p);
   EnvmapScores scores;
   if (IsFile(lighting_path)) {
     const Json lighting = ReadJsonFile(lighting_path);
@@ -748,10 +747,9 @@ void ScoreEnvmaps(const EvaluateContext& ctx, OrderedJson* metrics, OrderedJson*
 // median angle error is the light direction error when the environment maps gave none.
 void ScoreDirectionalLights(const EvaluateContext& ctx, OrderedJson* metrics) {
   OrderedJson& m = *metrics;
-  const std::string& gt = ctx.gt;
-  if (ctx.has_gt && IsFile(JoinPath(gt, "lights.json")) && !ctx.inputs.inverse_dir.empty()) {
-    const LightEvaluation e =
-        EvaluateDirectionalLights(ctx.inputs.inverse_dir, ReadDirectionalLights(JoinPath(gt, "lights.json")));
+  const GroundTruth& gt = ctx.truth;
+  if (ctx.has_gt && gt.HasLights() && !ctx.inputs.inverse_dir.empty()) {
+    const LightEvaluation e = EvaluateDirectionalLights(ctx.inputs.inverse_dir, ReadDirectionalLights(gt.LightsPath()));
     OrderedJson per = OrderedJson::array();
     for (size_t k = 0; k < e.photos.size(); ++k)
       per.push_back({{"name", e.photos[k]},
@@ -834,7 +832,7 @@ AlbedoPairs PairAlbedo(const EvaluateContext& ctx, const TriangleMesh& truth_mes
   // their albedo, the surroundings' (occluders.ply), and left out when it is farther than 2% of
   // the object's diagonal from both (off every true surface). Where the two touch, the object's.
   TriangleMesh truth_surroundings;
-  const std::string surroundings_path = JoinPath(ctx.gt, "occluders.ply");
+  const std::string surroundings_path = ctx.truth.OccludersPath();
   if (!same && IsFile(surroundings_path)) {
     truth_surroundings = ReadMesh(surroundings_path);
     for (const char* p : {"albedo_r", "albedo_g", "albedo_b"})
@@ -895,7 +893,7 @@ void EvaluateAlbedo(const EvaluateContext& ctx, OrderedJson* metrics, OrderedJso
   OrderedJson& m = *metrics;
   (*figures)["albedo"] = OrderedJson::array();
   std::string reason;
-  const std::string truth_path = JoinPath(ctx.gt, "mesh.ply");
+  const std::string truth_path = ctx.truth.MeshPath();
   if (!ctx.has_gt || !IsFile(truth_path))
     reason = ctx.has_gt ? "the ground truth has no mesh.ply" : "no ground truth";
   else if (in.inverse_dir.empty())
@@ -967,16 +965,15 @@ void ScoreCameras(const EvaluateContext& ctx, OrderedJson* metrics) {
 // The reconstructed mesh against the true one (Chamfer distances; docs/METRICS.md "Geometry") into `metrics`.
 void ScoreMesh(const EvaluateContext& ctx, OrderedJson* metrics) {
   OrderedJson& m = *metrics;
-  const std::string& gt = ctx.gt;
+  const GroundTruth& gt = ctx.truth;
   const TriangleMesh& mesh = ctx.mesh;
   const GroundTruthFrame& frame = ctx.frame;
   const std::string mesh_source = ReadMeshSource(ctx.inputs.mesh_dir);
-  const std::string truth_path = JoinPath(gt, "mesh.ply");
+  const std::string truth_path = gt.MeshPath();
   if (ctx.has_gt && IsFile(truth_path) && !mesh.empty() && frame.available && mesh_source != "ground_truth") {
     const TriangleMesh truth_mesh = ReadMesh(truth_path);
     // The true ground and blockers (synthetic scenes): reconstructed ground is not an error.
-    const std::string context_path = JoinPath(gt, "occluders.ply");
-    const TriangleMesh context = IsFile(context_path) ? ReadMesh(context_path) : TriangleMesh();
+    const TriangleMesh context = gt.HasOccluders() ? ReadMesh(gt.OccludersPath()) : TriangleMesh();
     const MeshDistances d = CompareMeshes(frame.MeshToTruth(mesh), truth_mesh, size_t(ctx.options.mesh_samples), 1,
                                           context.num_faces() > 0 ? &context : nullptr);
     m["mesh"] = {{"source", mesh_source},
@@ -1172,10 +1169,9 @@ void RunLeaveOneOutFolds(const EvaluateContext& ctx, LeaveOneOutScores* scores) 
 void ScoreLeaveOneOut(const EvaluateContext& ctx, OrderedJson* metrics, OrderedJson* figures) {
   const EvaluateOptions& o = ctx.options;
   const EvaluateInputs& in = ctx.inputs;
-  const std::string& gt = ctx.gt;
+  const GroundTruth& gt = ctx.truth;
   OrderedJson& m = *metrics;
-  const bool gt_light = ctx.has_gt && (IsFile(JoinPath(gt, "relight/index.json")) ||
-                                       IsFile(JoinPath(gt, "lighting.json")) || IsFile(JoinPath(gt, "lights.json")));
+  const bool gt_light = ctx.has_gt && (gt.HasHeldout() || gt.HasLighting() || gt.HasLights());
   const bool run = o.leave_one_out == "always" || (o.leave_one_out == "auto" && !gt_light);
   std::string reason;
   if (!run) {

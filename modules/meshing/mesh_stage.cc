@@ -309,18 +309,13 @@ MeshSummary RunMesh(const MeshOptions& options, const MeshInputs& inputs, const 
 
   TriangleMesh mesh;
   TriangleMesh occluders;
-  if (options.source == "ground_truth") {
-    if (inputs.ingest_dir.empty())
-      RELIGHT_USER_ERROR() << "mesh.source is ground_truth: the ingest stage output is needed";
-    const std::string gt = JoinPath(inputs.ingest_dir, "ground_truth");
-    summary.input_path = JoinPath(gt, "mesh.ply");
-    if (!fs::is_regular_file(summary.input_path)) {
-      RELIGHT_USER_ERROR() << "mesh.source is ground_truth but '" << summary.input_path
-                           << "' does not exist; use a synthetic collection (synthesize: section) or set "
-                              "ingest.ground_truth, or choose mesh.source: mvs or file";
-    }
+  const bool known = !inputs.known_mesh.empty();  // the true mesh, given by the stage's main
+  RELIGHT_CHECK(known || options.source == "mvs" || options.source == "file")
+      << "mesh.source " << options.source << " needs the known mesh (MeshInputs::known_mesh)";
+  if (known) {
+    summary.input_path = inputs.known_mesh;
     mesh = ReadMesh(summary.input_path);
-    if (fs::is_regular_file(JoinPath(gt, "occluders.ply"))) occluders = ReadMesh(JoinPath(gt, "occluders.ply"));
+    if (!inputs.known_occluders.empty()) occluders = ReadMesh(inputs.known_occluders);
   } else if (options.source == "mvs") {
     if (inputs.mvs_dir.empty()) {
       RELIGHT_USER_ERROR() << "mesh.source is mvs but no mvs stage output was given (--input mvs=DIR); run the mvs "
@@ -348,7 +343,7 @@ MeshSummary RunMesh(const MeshOptions& options, const MeshInputs& inputs, const 
   if (mesh.empty()) RELIGHT_USER_ERROR() << "'" << summary.input_path << "' holds no triangles";
   RLOG_INFO("input mesh {}: {} vertices, {} faces", summary.input_path, mesh.vertices.size(), mesh.faces.size());
 
-  const bool clean = options.source != "ground_truth" || options.clean_ground_truth;
+  const bool clean = !known || options.clean_ground_truth;
   summary.cleaned = clean;
   if (clean) {
     // Crop to the region the cameras saw, and to the user's box.
@@ -359,7 +354,7 @@ MeshSummary RunMesh(const MeshOptions& options, const MeshInputs& inputs, const 
       region.box = Eigen::AlignedBox3d(Eigen::Vector3d(options.crop_box[0], options.crop_box[1], options.crop_box[2]),
                                        Eigen::Vector3d(options.crop_box[3], options.crop_box[4], options.crop_box[5]));
     }
-    if (options.auto_crop && options.source != "ground_truth") {
+    if (options.auto_crop && !known) {
       if (cameras == nullptr) {
         RLOG_WARN("mesh.auto_crop is on but no sfm output was given: the mesh is not cropped to the cameras");
       } else {

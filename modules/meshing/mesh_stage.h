@@ -1,6 +1,6 @@
 // The `mesh` stage: the object's triangle mesh in the world frame with
-// outward vertex normals, from the MVS surface, a user's mesh, or the ground
-// truth (docs/FORMATS.md):
+// outward vertex normals, from the MVS surface, a user's mesh, or a known
+// (true) mesh the stage's main gives (docs/FORMATS.md):
 //   mesh.ply           object mesh: x y z nx ny nz (+ the ground truth's named vertex properties)
 //   occluders.ply      other shadow-casting geometry (ground truth only)
 //   mesh_summary.json  what the clean-up did (vertex counts, holes, components, cropping, orientation)
@@ -20,14 +20,17 @@ namespace relight {
 
 // Upstream folders of the stage; empty when not available.
 struct MeshInputs {
-  std::string ingest_dir;
   std::string sfm_dir;
   std::string mvs_dir;
+  // A known mesh passed through uncleaned unless mesh.clean_ground_truth, and its occluders (may be empty):
+  // the ground-truth source's files, which the stage's main resolves (the library reads no ground truth).
+  std::string known_mesh;
+  std::string known_occluders;
 };
 
 // Result of the stage.
 struct MeshSummary {
-  std::string source;  // mvs | file | ground_truth
+  std::string source;  // mesh.source
   std::string input_path;
   size_t input_vertices = 0;
   size_t input_faces = 0;

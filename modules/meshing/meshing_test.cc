@@ -417,8 +417,9 @@ TEST(MeshStage, GroundTruthIsPassedThroughWithItsProperties) {
   MeshOptions options;
   options.source = "ground_truth";
   std::filesystem::create_directories(dir / "out");
-  MeshInputs inputs;
-  inputs.ingest_dir = dir / "ingest";
+  MeshInputs inputs;  // as the stage's main resolves the source
+  inputs.known_mesh = dir / "ingest/ground_truth/mesh.ply";
+  inputs.known_occluders = dir / "ingest/ground_truth/occluders.ply";
   const MeshSummary s = RunMesh(options, inputs, dir / "out");
   EXPECT_FALSE(s.cleaned);
   const TriangleMesh out = ReadMesh(dir / "out/mesh.ply");
@@ -439,14 +440,13 @@ TEST(MeshStage, ClearErrors) {
   } catch (const UserError& e) {
     EXPECT_NE(std::string(e.what()).find("mvs"), std::string::npos) << e.what();
   }
-  options.source = "ground_truth";
-  MeshInputs inputs;
-  inputs.ingest_dir = dir.path();
+  options.source = "file";
+  options.file = dir / "missing.ply";
   try {
-    RunMesh(options, inputs, dir / "out");
+    RunMesh(options, MeshInputs{}, dir / "out");
     FAIL() << "expected a UserError";
   } catch (const UserError& e) {
-    EXPECT_NE(std::string(e.what()).find("ground_truth/mesh.ply"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("missing.ply"), std::string::npos) << e.what();
   }
 }
 

@@ -226,4 +226,17 @@ Image ToGray(const Image& rgb) {
   return gray;
 }
 
+std::vector<ImageRecord> CamerasLookingAlongZ(const std::vector<Eigen::Vector3d>& centers, const std::string& prefix) {
+  std::vector<ImageRecord> poses;
+  for (size_t i = 0; i < centers.size(); ++i) {
+    ImageRecord image;
+    image.image_id = static_cast<uint32_t>(i + 1);
+    image.camera_id = 1;
+    image.name = prefix + std::to_string(i) + ".png";
+    image.SetPose(Eigen::Matrix3d::Identity(), centers[i]);
+    poses.push_back(image);
+  }
+  return poses;
+}
+
 }  // namespace relight::mvs_test

@@ -37,6 +37,8 @@ std::vector<ImageRecord> LookAtCameras(const std::vector<Eigen::Vector3d>& cente
                                        const Eigen::Vector3d& target);
 // Two rings around the origin at `distance`: `per_ring` views at +35° and at -20° elevation (offset by half a step).
 std::vector<Eigen::Vector3d> TwoRingCenters(int per_ring, double distance);
+// Images 1..n of camera 1, named <prefix><i>.png, at `centers`, all looking along +z (identity rotation).
+std::vector<ImageRecord> CamerasLookingAlongZ(const std::vector<Eigen::Vector3d>& centers, const std::string& prefix);
 
 // Renders `mesh` into every camera (shared PINHOLE `camera`) and builds the sparse model from `num_points`
 // visible surface samples.

@@ -1,6 +1,7 @@
 #include "relight/relight.h"
 
 #include <OpenImageIO/imageio.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,8 +10,6 @@
 #include <memory>
 #include <set>
 #include <sstream>
-
-#include <tbb/parallel_for.h>
 
 #include "core/error.h"
 #include "core/fs.h"
@@ -23,7 +22,6 @@
 #include "image/image.h"
 #include "relight/display.h"
 #include "relight/gltf_export.h"
-#include "relight/ground_truth_frame.h"
 #include "relight/transport_render.h"
 #include "relight/viewer_export.h"
 #include "render/lighting.h"
@@ -492,45 +490,26 @@ void AddRerenderJobs(const RelightOptions& o, const std::vector<RecoveredPhoto>&
   }
 }
 
-// (b) The ground truth's held-out views under its held-out maps, both brought into the model's frame; records
-// the frame relation (or why there are none) in `summary`.
-void AddHeldoutJobs(const RelightOptions& o, const RelightInputs& in, std::vector<Job>* jobs, RelightSummary* summary) {
-  const std::string gt_dir = in.ingest_dir.empty() ? "" : JoinPath(in.ingest_dir, "ground_truth");
-  const std::string heldout_dir = JoinPath(gt_dir, "relight");
-  summary->frame_method = "none";
-  if (!(o.heldout && !gt_dir.empty() && fs::is_regular_file(JoinPath(heldout_dir, "index.json")))) {
-    if (o.heldout) summary->notes.push_back("no held-out views: the ground truth has no relight/index.json");
-    return;
-  }
-  const GroundTruthFrame frame = RelateToGroundTruth(in.sfm_dir, gt_dir);
-  if (!frame.available) {
-    summary->notes.push_back("held-out views not rendered: " + frame.reason);
-    return;
-  }
-  summary->frame_method = frame.method;
-  const Reconstruction views = frame.CamerasToModel(Reconstruction::Read(heldout_dir));
-  const Json index = ReadJsonFile(JoinPath(heldout_dir, "index.json"));
+// (b) The given held-out views under their maps (already in the model's frame); records the frame relation (or
+// why there are none) in `summary`.
+void AddHeldoutJobs(const RelightOptions& o, const HeldoutViews& heldout, std::vector<Job>* jobs,
+                    RelightSummary* summary) {
+  summary->frame_method = heldout.frame_method;
+  for (const auto& note : heldout.notes) summary->notes.push_back(note);
+  if (!o.heldout) return;
   std::map<std::string, std::shared_ptr<const Lighting>> envs;
-  for (const auto& d : index.at("envmap_details")) {
-    const std::string name = d.at("name").get<std::string>();
-    const EnvMap truth = EnvMap::Load(JoinPath(heldout_dir, d.at("latlong").get<std::string>()));
-    envs[name] = EnvLighting(frame.EnvToModel(truth));
-  }
+  for (const auto& [name, env] : heldout.envmaps) envs[name] = EnvLighting(env);
   uint64_t k = 0;
-  for (const auto& r : index.at("renders")) {
-    const std::string view = r.at("view").get<std::string>(), env = r.at("envmap").get<std::string>();
-    const ImageRecord* image = views.FindImage(view);
-    if (image == nullptr || !envs.count(env)) {
-      RELIGHT_USER_ERROR() << "'" << JoinPath(heldout_dir, "index.json") << "' names view '" << view << "' or map '"
-                           << env << "' that its cameras/envmaps do not have; regenerate the "
-                           << "ground truth";
-    }
+  for (const auto& [view, env] : heldout.renders) {
+    const ImageRecord* image = heldout.cameras.FindImage(view);
+    RELIGHT_CHECK(image != nullptr && envs.count(env))
+        << "held-out view '" << view << "' or map '" << env << "' is not among the given cameras and maps";
     Job job;
     job.record.kind = "heldout";
     job.record.name = view + "__" + env;
     job.record.view = view;
     job.record.light = "heldout:" + env;
-    job.record.camera = {view, views.cameras.at(image->camera_id), *image};
+    job.record.camera = {view, heldout.cameras.cameras.at(image->camera_id), *image};
     job.lighting = envs[env];
     job.background = true;
     job.stream = kHeldout;
@@ -893,7 +872,7 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   const std::vector<RecoveredPhoto> photos = LoadRecoveredPhotos(o, in, scene, &summary.notes);
   if (o.rerender) AddRerenderJobs(o, photos, &jobs);
   // (b) Held-out views under held-out maps, in the model's frame.
-  AddHeldoutJobs(o, in, &jobs, &summary);
+  AddHeldoutJobs(o, in.heldout, &jobs, &summary);
   // (c) New orbit views under new lights, and flat albedo / material images.
   const NamedLights file_lights = FileLights(o.envmaps, file_maps);
   AddNovelJobs(o, model, file_lights, &jobs);

@@ -6,8 +6,9 @@
 // generator), under
 //   (a) each input photo's recovered environment map, from that photo's camera
 //       (re-renderings, scored by `evaluate`);
-//   (b) the ground truth's held-out environment maps, from its held-out views,
-//       both brought into the model's frame (relight/ground_truth_frame.h);
+//   (b) given held-out views under given held-out environment maps, both in
+//       the model's frame (HeldoutViews: the stage's main takes them from the
+//       ground truth and brings them into the model's frame);
 //   (c) HDR environment map files, a directional and a point light, from new
 //       orbit cameras, plus flat albedo and dominant-material images;
 //   (d) a turntable (frames on an orbit and an animated GIF).
@@ -27,12 +28,15 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "brdf/brdf.h"
 #include "core/json.h"
 #include "geometry/mesh.h"
+#include "geometry/reconstruction.h"
 #include "relight/gltf_export.h"
 #include "relight/relight_options.h"
 #include "relight/transport_render.h"
@@ -114,7 +118,7 @@ struct RelightSummary {
   std::vector<RenderRecord> renders;
   int rendered = 0;                // images rendered by this run
   int reused = 0;                  // images already present (an earlier run was killed)
-  std::string frame_method;        // ground-truth frame relation (relight/ground_truth_frame.h) or "none"
+  std::string frame_method;        // HeldoutViews::frame_method
   std::string turntable_gif;       // relative path; empty when none
   ExportRecord exported;           // the export folder (relight/gltf_export.h)
   std::string viewer;              // the interactive viewer page, relative; empty when none
@@ -132,9 +136,19 @@ struct RelightSummary {
 std::vector<RenderRecord> ReadRenderIndex(const std::string& relight_dir, std::string* turntable_gif = nullptr,
                                           ExportRecord* exported = nullptr);
 
+// Views rendered as kind "heldout" (`<view>__<envmap>`, in this order) with their cameras and maps in the
+// model's frame; what the relation to their frame was and why there are none are recorded in the summary.
+struct HeldoutViews {
+  std::string frame_method = "none";                         // relight_summary.json "frame"
+  std::vector<std::string> notes;                            // e.g. why there are none
+  Reconstruction cameras;                                    // image names = view names
+  std::map<std::string, EnvMap> envmaps;                     // by name
+  std::vector<std::pair<std::string, std::string>> renders;  // (view, envmap): names in `cameras`, `envmaps`
+};
+
 // Upstream folders of the stage.
 struct RelightInputs {
-  std::string ingest_dir;   // optional: ground truth for held-out renders
+  HeldoutViews heldout;     // optional: held-out views (the stage's main fills them)
   std::string sfm_dir;      // cameras of the photos (sparse/)
   std::string mesh_dir;     // occluders.ply
   std::string inverse_dir;  // reflectance.ply, materials.json, lighting.json, envmaps/

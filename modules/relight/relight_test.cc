@@ -17,9 +17,10 @@
 #include "core/fs.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "datasets/ground_truth.h"
+#include "datasets/ground_truth_frame.h"
 #include "geometry/mesh_io.h"
 #include "relight/display.h"
-#include "relight/ground_truth_frame.h"
 #include "relight/views.h"
 #include "render/render_view.h"
 #include "render/test_scenes.h"
@@ -271,8 +272,21 @@ class RelightStageTest : public ::testing::Test {
     o.renderer = "monte_carlo";  // per-pixel reference: the frame checks below compare within its noise
     return o;
   }
+  // The stage's inputs, with the held-out views as the stage's main gives them: the ground truth's, brought into
+  // the model's frame by the frame relation.
   RelightInputs Inputs() const {
-    return {dir_ / "ingest", dir_ / "sfm", dir_ / "mesh", dir_ / "inverse", dir_ / "visibility"};
+    const GroundTruth truth = *GroundTruth::Open(gt_);
+    const GroundTruthFrame frame = RelateToGroundTruth(dir_ / "sfm", truth);
+    RelightInputs in;
+    in.heldout.frame_method = frame.method;
+    in.heldout.cameras = frame.CamerasToModel(truth.ReadHeldoutCameras());
+    in.heldout.envmaps["sky"] = frame.EnvToModel(truth_env_);
+    in.heldout.renders = {{"view_0", "sky"}};
+    in.sfm_dir = dir_ / "sfm";
+    in.mesh_dir = dir_ / "mesh";
+    in.inverse_dir = dir_ / "inverse";
+    in.visibility_dir = dir_ / "visibility";
+    return in;
   }
 
   // Photos 0 and 2 re-rendered into <dir_>/<out>: their means over the object equal a truth-frame Monte Carlo
@@ -355,7 +369,7 @@ TEST_F(RelightStageTest, RendersAgreeWithGroundTruthFrameRendersAndResume) {
   {
     const RecoveredModel model = LoadRecoveredModel(dir_ / "inverse", dir_ / "mesh");
     const Scene scene(ModelSurfaces(model.mesh, model.reflectance, model.occluders, 0.35), "model");
-    const GroundTruthFrame frame = RelateToGroundTruth(dir_ / "sfm", gt_);
+    const GroundTruthFrame frame = RelateToGroundTruth(dir_ / "sfm", *GroundTruth::Open(gt_));
     ASSERT_TRUE(frame.available);
     const Reconstruction views = frame.CamerasToModel(Reconstruction::Read(gt_ + "/relight"));
     const ImageRecord& pose = views.images.at(1);

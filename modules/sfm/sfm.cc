@@ -1296,21 +1296,11 @@ void TriangulateGivenCameras(const SfmOptions& options, const std::string& work,
   *model = std::move(triangulated);
 }
 
-// ground_truth and model modes: a given model, conformed to the photos.
-void RunGivenModelMode(const SfmOptions& options, const std::string& ingest_dir,
+// Given cameras (the model mode's folder, or the one the stage's main resolved): a given model, conformed to the
+// photos.
+void RunGivenModelMode(const SfmOptions& options, const std::string& ingest_dir, const std::string& model_dir,
                        const std::vector<IngestedPhoto>& photos, const std::string& output_dir, int threads,
                        SfmSummary& summary) {
-  std::string model_dir;
-  if (options.mode == "ground_truth") {
-    model_dir = JoinPath(ingest_dir, "ground_truth");
-    if (!fs::exists(JoinPath(model_dir, "images.txt")) && !fs::exists(JoinPath(model_dir, "images.bin"))) {
-      RELIGHT_USER_ERROR() << "sfm.mode is ground_truth but " << model_dir
-                           << " has no cameras.txt/images.txt; set ingest.ground_truth (or use a synthesize: "
-                              "section), or set sfm.mode: colmap";
-    }
-  } else {
-    model_dir = options.model;
-  }
   Timer step;
   Reconstruction model = Reconstruction::Read(model_dir);
   const auto unknown = ConformToPhotos(photos, model_dir, &model);
@@ -1627,8 +1617,8 @@ void WriteSfmSummary(const SfmSummary& summary, const std::string& path) {
   WriteJsonAtomic(path, j);
 }
 
-SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, const std::string& output_dir,
-                  int threads) {
+SfmSummary RunSfm(const SfmOptions& options, const SfmInputs& inputs, const std::string& output_dir, int threads) {
+  const std::string &ingest_dir = inputs.ingest_dir, &given_cameras_dir = inputs.given_cameras_dir;
   Timer timer;
   const IngestSummary ingest = ReadIngestManifest(ingest_dir);
   const int n = static_cast<int>(ingest.photos.size());
@@ -1636,7 +1626,7 @@ SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, cons
     RELIGHT_USER_ERROR() << "structure from motion needs at least 3 photos, but " << ingest_dir
                          << "/manifest.json lists " << n << "; add photos of the object from more viewpoints";
   }
-  if (n < 1) {  // given cameras (ground_truth, model): any number of photos will do
+  if (n < 1) {  // given cameras: any number of photos will do
     RELIGHT_USER_ERROR() << ingest_dir << "/manifest.json lists no photos; add photos of the object";
   }
   SfmSummary summary;
@@ -1652,7 +1642,9 @@ SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, cons
     if (options.mode == "colmap") {
       RunColmapMode(options, ingest_dir, ingest.photos, output_dir, threads, summary);
     } else {
-      RunGivenModelMode(options, ingest_dir, ingest.photos, output_dir, threads, summary);
+      const std::string& model_dir = options.mode == "model" ? options.model : given_cameras_dir;
+      RELIGHT_CHECK(!model_dir.empty()) << "sfm.mode " << options.mode << " needs the given cameras' folder";
+      RunGivenModelMode(options, ingest_dir, model_dir, ingest.photos, output_dir, threads, summary);
     }
   } catch (const UserError& e) {
     // The summary says what happened to each photo even when the stage stops.

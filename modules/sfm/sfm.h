@@ -4,8 +4,9 @@
 // SIFT, a matcher chosen by collection size, mapper, image_undistorter; see
 // ../shared/COLMAP.md for the measured pitfalls), keeps the largest model and
 // rotates it so the mean camera up direction (−y of the images) is +Z.
-// mode=ground_truth copies <ingest>/ground_truth cameras; mode=model takes a
-// user's COLMAP model. Every mode writes the same outputs (docs/FORMATS.md):
+// The ground-truth mode copies the true cameras (a folder the stage's main
+// gives); mode=model takes a user's COLMAP model. Every mode writes the same
+// outputs (docs/FORMATS.md):
 //   sparse/        COLMAP binary model, world frame, image names = photo names of the ingest manifest
 //   sparse_txt/    the same as text
 //   dense/         COLMAP undistorted workspace (images/, sparse/, stereo/) in the world frame, for MVS
@@ -36,7 +37,7 @@ struct SfmPhoto {
   std::string name;         // photo name (ingest manifest; image name in sparse/)
   std::string colmap_name;  // file name COLMAP saw (dense/images/)
   bool registered = false;
-  int num_keypoints = -1;       // SIFT features (-1: not extracted, e.g. ground_truth mode)
+  int num_keypoints = -1;       // SIFT features (-1: not extracted, e.g. given cameras)
   int num_matched_photos = -1;  // photos with verified matches (-1: unknown)
   std::string reason;           // why it is not registered
   bool unstable = false;        // a mapper run that agrees overall placed it differently, or its pairs contradict it
@@ -88,9 +89,15 @@ struct SfmSummary {
   std::string BriefReport() const;
 };
 
-// Runs the stage on an ingest output folder, writing into `output_dir` (exists).
-// `threads` > 0 limits COLMAP's threads.
-SfmSummary RunSfm(const SfmOptions& options, const std::string& ingest_dir, const std::string& output_dir,
+struct SfmInputs {
+  std::string ingest_dir;  // the ingest stage's folder
+  // Modes other than colmap and model: the COLMAP model folder of the cameras to use (the stage's main resolves
+  // the ground_truth mode to the true cameras' folder); the model mode takes sfm.model.
+  std::string given_cameras_dir;
+};
+
+// Runs the stage, writing into `output_dir` (exists). `threads` > 0 limits COLMAP's threads.
+SfmSummary RunSfm(const SfmOptions& options, const SfmInputs& inputs, const std::string& output_dir,
                   int threads = 0);
 
 // The rotation (about the origin) that takes the mean camera up direction

@@ -143,7 +143,7 @@ TEST(SfmColmap, TempleSparseRing) {
 
   SfmOptions options;  // defaults: one shared SIMPLE_RADIAL camera, abs_pose_min_num_inliers 15
   fs::create_directories(dir / "sfm");
-  const SfmSummary summary = RunSfm(options, dir / "ingest", dir / "sfm");
+  const SfmSummary summary = RunSfm(options, {dir / "ingest", ""}, dir / "sfm");
   EXPECT_EQ(summary.num_photos, 17);
   EXPECT_EQ(summary.shared_intrinsics, "single") << "all photos are 640x480 without EXIF camera";
   EXPECT_EQ(summary.matcher, "exhaustive");
@@ -224,7 +224,8 @@ TEST(SfmGroundTruth, CopiesTheCamerasAndBuildsTheDenseWorkspace) {
   SfmOptions options;
   options.mode = "ground_truth";
   fs::create_directories(dir / "sfm");
-  const SfmSummary summary = RunSfm(options, dir / "ingest", dir / "sfm");
+  // The stage's main resolves the mode to the cameras ingest carried along.
+  const SfmSummary summary = RunSfm(options, {dir / "ingest", dir / "ingest/ground_truth"}, dir / "sfm");
   EXPECT_EQ(summary.num_registered, 4);
   const Reconstruction model = Reconstruction::Read(dir / "sfm/sparse");
   ASSERT_EQ(model.images.size(), 4u);
@@ -249,7 +250,7 @@ TEST(SfmGroundTruth, CopiesTheCamerasAndBuildsTheDenseWorkspace) {
   model_options.mode = "model";
   model_options.model = dir / "gt";
   fs::create_directories(dir / "sfm_model");
-  RunSfm(model_options, dir / "ingest", dir / "sfm_model");
+  RunSfm(model_options, {dir / "ingest", ""}, dir / "sfm_model");
   const CameraErrors em = CompareCameras(Reconstruction::Read(dir / "sfm_model/sparse"), truth);
   EXPECT_EQ(em.matched, 4);
   EXPECT_LT(em.median_rotation_deg, 1e-6);
@@ -263,7 +264,7 @@ TEST(SfmErrors, FewerThanThreePhotos) {
   fs::copy_file(TempleDir() + "/templeSR0002.png", dir / "photos/templeSR0002.png");
   Ingest(dir / "photos", dir / "ingest", /*min_photos=*/1);
   fs::create_directories(dir / "sfm");
-  const std::string message = ErrorOf([&] { RunSfm(SfmOptions(), dir / "ingest", dir / "sfm"); });
+  const std::string message = ErrorOf([&] { RunSfm(SfmOptions(), {dir / "ingest", ""}, dir / "sfm"); });
   EXPECT_NE(message.find("at least 3 photos"), std::string::npos) << message;
   EXPECT_NE(message.find("manifest.json"), std::string::npos) << message;
   // With given cameras two photos are enough (nothing is triangulated from them) once
@@ -275,7 +276,7 @@ TEST(SfmErrors, FewerThanThreePhotos) {
   given.model = dir / "gt";
   given.min_registered = 2;
   fs::create_directories(dir / "sfm_model");
-  const SfmSummary summary = RunSfm(given, dir / "ingest", dir / "sfm_model");
+  const SfmSummary summary = RunSfm(given, {dir / "ingest", ""}, dir / "sfm_model");
   EXPECT_EQ(summary.num_registered, 2);
 }
 
@@ -285,7 +286,7 @@ TEST(SfmErrors, NothingRegistered) {
   for (int i = 0; i < 4; ++i) WriteImage(dir / ("photos/noise" + std::to_string(i) + ".png"), NoiseImage(320, 240, i));
   Ingest(dir / "photos", dir / "ingest");
   fs::create_directories(dir / "sfm");
-  const std::string message = ErrorOf([&] { RunSfm(SfmOptions(), dir / "ingest", dir / "sfm"); });
+  const std::string message = ErrorOf([&] { RunSfm(SfmOptions(), {dir / "ingest", ""}, dir / "sfm"); });
   EXPECT_NE(message.find("nothing registered"), std::string::npos) << message;
   // The message names each photo with its features and partners, and says what to change.
   EXPECT_NE(message.find("noise2.png: "), std::string::npos) << message;
@@ -312,7 +313,7 @@ TEST(SfmErrors, PartialRegistrationStopsUnlessAllowed) {
   }
   Ingest(dir / "photos", dir / "ingest");
   fs::create_directories(dir / "sfm");
-  const std::string message = ErrorOf([&] { RunSfm(SfmOptions(), dir / "ingest", dir / "sfm"); });
+  const std::string message = ErrorOf([&] { RunSfm(SfmOptions(), {dir / "ingest", ""}, dir / "sfm"); });
   EXPECT_NE(message.find("not reliable"), std::string::npos) << message;
   EXPECT_NE(message.find("of the 22 photos with features registered"), std::string::npos) << message;
   EXPECT_NE(message.find("zz_noise3.png"), std::string::npos) << message;
@@ -320,7 +321,7 @@ TEST(SfmErrors, PartialRegistrationStopsUnlessAllowed) {
   SfmOptions allow;
   allow.allow_partial = true;
   fs::create_directories(dir / "sfm_partial");
-  const SfmSummary summary = RunSfm(allow, dir / "ingest", dir / "sfm_partial");
+  const SfmSummary summary = RunSfm(allow, {dir / "ingest", ""}, dir / "sfm_partial");
   // Some of the ten temple photos (per-photo cameras here, as the sizes differ: measured 7).
   EXPECT_GE(summary.num_registered, 3);
   EXPECT_LE(summary.num_registered, 10);

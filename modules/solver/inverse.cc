@@ -574,8 +574,8 @@ void MeasureLowerBounds(const SolveContext& ctx, const InverseResult& result, In
 bool UseFootprintRows(const InverseOptions& o, const InverseProblem& problem) {
   if (o.transport != "pixel" || o.transport_footprint == "off") return false;
   if (o.transport_footprint == "on") return true;
-  // auto: a given mesh's normals are the surface's; a reconstruction's are estimates.
-  return problem.mesh_source == "ground_truth" || problem.mesh_source == "file";
+  // auto: a given mesh's normals (a file's, the truth's) are the surface's; a reconstruction's are estimates.
+  return !problem.mesh_source.empty() && problem.mesh_source != "mvs";
 }
 
 // The rows' lighting basis, map size and truncation from the inverse options.
@@ -807,60 +807,6 @@ InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& 
   summary.seconds = total.Seconds();
   return result;
 }
-
-namespace {
-
-KnownQuantities LoadKnown(const InverseOptions& o, const std::string& ingest_dir, const InverseProblem& problem) {
-  KnownQuantities known;
-  const std::string gt = JoinPath(ingest_dir, "ground_truth");
-  if (!fs::is_directory(gt)) {
-    RELIGHT_USER_ERROR() << "inverse.fixed_lighting / fixed_reflectance / start_from_truth need ground truth, but '"
-                         << gt << "' does not exist (only synthetic scenes and imported data sets have it)";
-  }
-  if (o.fixed_lighting) {
-    const Json lighting = ReadJsonFile(JoinPath(gt, "lighting.json"));
-    std::map<std::string, Json> by_name;
-    for (const auto& p : lighting.at("photos")) by_name[p.at("name").get<std::string>()] = p;
-    for (const auto& photo : problem.photos) {
-      auto it = by_name.find(photo.name);
-      if (it == by_name.end()) {
-        RELIGHT_USER_ERROR() << "'" << gt << "/lighting.json' has no entry for photo '" << photo.name << "'";
-      }
-      const Json& p = it->second;
-      const EnvMap env = EnvMap::Load(JoinPath(gt, p.at("envmap_latlong").get<std::string>()));
-      const Image oct = env.ToOctahedral(o.env_resolution, 0);
-      // Photo units: exposure × white balance × scene radiance.
-      const double exposure = p.value("exposure", 1.0);
-      std::vector<double> wb = p.value("white_balance", std::vector<double>{1, 1, 1});
-      std::vector<float> rgb(oct.pixels.size());
-      for (size_t k = 0; k < rgb.size(); ++k) rgb[k] = static_cast<float>(oct.pixels[k] * exposure * wb[k % 3]);
-      known.lighting_oct_rgb.push_back(std::move(rgb));
-    }
-    known.has_lighting = true;
-  }
-  if (o.fixed_reflectance || o.start_from_truth) {
-    const ReflectanceModel model = ReadReflectanceModel(JoinPath(gt, "materials.json"));
-    ReflectanceState& r = known.reflectance;
-    r.basis = model.basis;
-    r.num_materials = static_cast<int>(model.materials.size());
-    for (const auto& m : model.materials)
-      for (const auto& c : m.coefficients) r.coefficients.push_back(c);
-    r.weights.assign(problem.mesh.num_vertices() * r.num_materials, 0.0f);
-    for (int m = 0; m < r.num_materials; ++m) {
-      const std::vector<float>* w = problem.mesh.FindProperty("w" + std::to_string(m));
-      if (w == nullptr) {
-        RELIGHT_USER_ERROR()
-            << "inverse.fixed_reflectance / start_from_truth need the ground-truth mesh with material weights "
-            << "(property w" << m << "); set mesh.source: ground_truth";
-      }
-      for (size_t v = 0; v < w->size(); ++v) r.weights[v * r.num_materials + m] = (*w)[v];
-    }
-    known.has_reflectance = true;
-  }
-  return known;
-}
-
-}  // namespace
 
 std::string ReadMeshSource(const std::string& mesh_dir) {
   if (mesh_dir.empty()) return "";
@@ -1150,13 +1096,9 @@ void WriteSolveSummary(const InverseOptions& o, const InverseProblem& problem, c
 
 }  // namespace
 
-InverseSummary RunInverse(const InverseOptions& o, const std::string& ingest_dir, const std::string& mesh_dir,
-                          const std::string& visibility_dir, const std::string& observe_dir,
+InverseSummary RunInverse(const InverseOptions& o, InverseProblem& problem, const KnownQuantities& known,
                           const std::string& output_dir) {
-  InverseProblem problem = ReadInverseProblem(mesh_dir, visibility_dir, observe_dir);
   problem.scratch_dir = output_dir;
-  KnownQuantities known;
-  if (o.fixed_lighting || o.fixed_reflectance || o.start_from_truth) known = LoadKnown(o, ingest_dir, problem);
   const InverseResult result = SolveInverse(problem, o, &known);
 
   // Outputs.

@@ -26,7 +26,7 @@ struct InverseProblem {
   ObservationSet observations;
   std::vector<ObservedPhoto> photos;
   double footprint_scale = 1.0;      // observe.footprint_scale: the surface disc each observation averages
-  std::string mesh_source;           // mesh.source of the mesh stage (mvs, file, ground_truth; empty: unknown)
+  std::string mesh_source;           // mesh.source of the mesh stage (mvs, file or the truth's; empty: unknown)
   // Folder for the transport rows' scratch file (TransportOptions::spill_dir; the stages use their
   // output folder); empty keeps the rows in memory.
   std::string scratch_dir;
@@ -139,11 +139,11 @@ std::string ReadMeshSource(const std::string& mesh_dir);
 InverseResult SolveInverse(const InverseProblem& problem, const InverseOptions& options,
                            const KnownQuantities* known = nullptr);
 
-// Runs the stage: reads <mesh>/mesh.ply, <visibility>/visibility.bin, <observe>/observations.bin and
-// photos.json (and ground truth from <ingest> for the fixed_* modes); writes envmaps/, reflectance.ply,
-// materials.json, lighting.json and solve_summary.json into `output_dir`.
-InverseSummary RunInverse(const InverseOptions& options, const std::string& ingest_dir, const std::string& mesh_dir,
-                          const std::string& visibility_dir, const std::string& observe_dir,
+// Runs the stage on a problem (ReadInverseProblem; its scratch folder becomes `output_dir`) with the known
+// quantities of the fixed_* options and start_from_truth (empty without them; the stage's main reads them from
+// the ground truth); writes envmaps/, reflectance.ply, materials.json, lighting.json and solve_summary.json into
+// `output_dir`.
+InverseSummary RunInverse(const InverseOptions& options, InverseProblem& problem, const KnownQuantities& known,
                           const std::string& output_dir);
 
 }  // namespace relight

@@ -3,13 +3,15 @@
 // else the robust similarity that maps the estimated camera centres onto the
 // true ones (geometry/align.h, CompareCameras). Everything compared with the
 // ground truth goes through it: held-out cameras and environment maps are
-// brought into the model's frame to relight the model; the model's mesh,
-// albedo and environment maps are brought into the truth's frame to be scored.
+// brought into the model's frame to relight the model (the relight stage's
+// main does that); the model's mesh, albedo and environment maps are brought
+// into the truth's frame to be scored (evaluate).
 #pragma once
 
 #include <Eigen/Core>
 #include <string>
 
+#include "datasets/ground_truth.h"
 #include "geometry/align.h"
 #include "geometry/mesh.h"
 #include "geometry/reconstruction.h"
@@ -42,8 +44,8 @@ struct GroundTruthFrame {
 };
 
 // Relates the frames from the sfm stage's output (`sfm_dir`: sparse/, sfm_summary.json) and the
-// ground-truth folder (cameras.txt/images.txt). Not available (with a reason) when either is missing or
-// fewer than 3 photos match by name; throws UserError only for unreadable files.
-GroundTruthFrame RelateToGroundTruth(const std::string& sfm_dir, const std::string& ground_truth_dir);
+// ground truth's cameras. Not available (with a reason) when either is missing or fewer than 3 photos match
+// by name; throws UserError only for unreadable files.
+GroundTruthFrame RelateToGroundTruth(const std::string& sfm_dir, const GroundTruth& truth);
 
 }  // namespace relight

@@ -50,42 +50,42 @@ struct MvsEvaluationOptions {
 // Depth-map score of one view.
 struct ViewDepthScore {
   std::string name;
-  size_t object_pixels = 0;       // pixels of the object in the view
-  double object_depth_range = 0;  // max - min true depth over the object's pixels
-  double scene_depth_range = 0;   // max - min true depth over every pixel with a true depth
-  double completeness = 0;        // fraction of the object's pixels within tolerance × object_depth_range
-  double completeness_scene = 0;  // fraction of the object's pixels within tolerance × scene_depth_range
-  double missing = 0;             // fraction of them without a depth
-  size_t visible_pixels = 0;      // pixels with a true depth (object, ground, blockers)
-  double completeness_visible = 0;  // fraction of the visible pixels within tolerance × scene_depth_range
-  double edge_fraction = 0;       // fraction of them in the silhouette/edge band
+  size_t object_pixels = 0;          // pixels of the object in the view
+  double object_depth_range = 0;     // max - min true depth over the object's pixels
+  double scene_depth_range = 0;      // max - min true depth over every pixel with a true depth
+  double completeness = 0;           // fraction of the object's pixels within tolerance × object_depth_range
+  double completeness_scene = 0;     // fraction of the object's pixels within tolerance × scene_depth_range
+  double missing = 0;                // fraction of them without a depth
+  size_t visible_pixels = 0;         // pixels with a true depth (object, ground, blockers)
+  double completeness_visible = 0;   // fraction of the visible pixels within tolerance × scene_depth_range
+  double edge_fraction = 0;          // fraction of them in the silhouette/edge band
   double completeness_interior = 0;  // completeness (object range) over the pixels outside the band
   double completeness_edge = 0;      // ... inside the band
-  double median_error = 0;        // median |error| / true depth range over object pixels with a depth
-  double median_signed_error = 0; // median (ours - true) / true depth range (a bias shows here)
+  double median_error = 0;           // median |error| / true depth range over object pixels with a depth
+  double median_signed_error = 0;    // median (ours - true) / true depth range (a bias shows here)
 };
 
 // All scores (lengths in the ground truth's units).
 struct MvsEvaluation {
-  std::string map_type;           // depth maps scored ("geometric" or "photometric")
-  double diagonal = 0;            // of the true object's bounding box
-  double scale = 1;               // of the similarity that aligned the reconstruction
+  std::string map_type;  // depth maps scored ("geometric" or "photometric")
+  double diagonal = 0;   // of the true object's bounding box
+  double scale = 1;      // of the similarity that aligned the reconstruction
   std::vector<ViewDepthScore> views;
-  double mean_depth_completeness = 0;        // tolerance: of the view's depth range over the object
+  double mean_depth_completeness = 0;  // tolerance: of the view's depth range over the object
   double min_depth_completeness = 0;
   double mean_depth_completeness_scene = 0;  // tolerance: of the view's depth range over the scene (issue 9)
   double min_depth_completeness_scene = 0;
   double mean_depth_completeness_visible = 0;  // scene range, over every visible pixel (object and ground)
   double min_depth_completeness_visible = 0;
-  double mean_missing = 0;                   // object pixels without a depth
-  double mean_completeness_interior = 0;     // object range, outside / inside the edge band
+  double mean_missing = 0;                // object pixels without a depth
+  double mean_completeness_interior = 0;  // object range, outside / inside the edge band
   double mean_completeness_edge = 0;
-  size_t fused_points = 0;        // inside the object's box
+  size_t fused_points = 0;  // inside the object's box
   double fused_accuracy = 0;
   double fused_completeness = 0;
   double fused_mean_distance = 0;  // mean distance of the fused points to the true surfaces
   bool has_mesh = false;
-  double chamfer = 0;              // symmetric
+  double chamfer = 0;  // symmetric
   double chamfer_mesh_to_truth = 0;
   double chamfer_truth_to_mesh = 0;
 

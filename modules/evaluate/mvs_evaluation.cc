@@ -1,4 +1,4 @@
-#include "mvs/mvs_evaluation.h"
+#include "evaluate/mvs_evaluation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/stats.h"
+#include "datasets/ground_truth.h"
 #include "geometry/align.h"
 #include "geometry/mesh_io.h"
 #include "geometry/reconstruction.h"
@@ -31,7 +32,6 @@ Eigen::Vector3f ApplySim(const Sim3& sim, const Eigen::Vector3f& p) {
 }
 
 bool InBox(const Eigen::AlignedBox3f& box, const Eigen::Vector3f& p) { return box.contains(p); }
-
 
 }  // namespace
 
@@ -84,17 +84,16 @@ std::string MvsEvaluation::BriefReport() const {
   s.precision(3);
   s << "depth maps (" << map_type << ", " << views.size() << " views): completeness within 1% of the object's "
     << "depth range mean " << mean_depth_completeness << ", min " << min_depth_completeness
-    << "; of the scene's depth range mean " << mean_depth_completeness_scene << ", min "
-    << min_depth_completeness_scene << "; every visible pixel (ground included), scene range, mean "
-    << mean_depth_completeness_visible << ", min " << min_depth_completeness_visible << "\n";
+    << "; of the scene's depth range mean " << mean_depth_completeness_scene << ", min " << min_depth_completeness_scene
+    << "; every visible pixel (ground included), scene range, mean " << mean_depth_completeness_visible << ", min "
+    << min_depth_completeness_visible << "\n";
   s << "depth maps: object pixels without depth " << mean_missing << "; completeness (object range) inside "
     << mean_completeness_interior << ", at silhouettes/depth edges " << mean_completeness_edge << "\n";
-  s << "fused: " << fused_points << " points in the object's box, accuracy " << fused_accuracy
-    << ", completeness " << fused_completeness << ", mean distance " << fused_mean_distance / diagonal
-    << " of the diagonal\n";
+  s << "fused: " << fused_points << " points in the object's box, accuracy " << fused_accuracy << ", completeness "
+    << fused_completeness << ", mean distance " << fused_mean_distance / diagonal << " of the diagonal\n";
   if (has_mesh) {
-    s << "mesh: Chamfer " << chamfer / diagonal << " of the diagonal (mesh->truth "
-      << chamfer_mesh_to_truth / diagonal << ", truth->mesh " << chamfer_truth_to_mesh / diagonal << ")";
+    s << "mesh: Chamfer " << chamfer / diagonal << " of the diagonal (mesh->truth " << chamfer_mesh_to_truth / diagonal
+      << ", truth->mesh " << chamfer_truth_to_mesh / diagonal << ")";
   }
   return s.str();
 }
@@ -102,7 +101,8 @@ std::string MvsEvaluation::BriefReport() const {
 MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_truth_dir,
                           const MvsEvaluationOptions& options) {
   MvsEvaluation result;
-  const Reconstruction truth = Reconstruction::Read(ground_truth_dir);
+  const GroundTruth gt = GroundTruth::At(ground_truth_dir);
+  const Reconstruction truth = gt.ReadCameras();
   const Reconstruction estimate = Reconstruction::Read(JoinPath(mvs_dir, "dense/sparse"));
   const CameraErrors cameras = CompareCameras(estimate, truth);
   if (cameras.matched < 3) {
@@ -114,11 +114,9 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
   const Sim3 est_from_true = true_from_est.Inverse();
   result.scale = true_from_est.scale;
 
-  TriangleMesh object = ReadMesh(JoinPath(ground_truth_dir, "mesh.ply"));
+  TriangleMesh object = ReadMesh(gt.MeshPath());
   TriangleMesh surfaces = object;
-  if (fs::exists(JoinPath(ground_truth_dir, "occluders.ply"))) {
-    surfaces.Append(ReadMesh(JoinPath(ground_truth_dir, "occluders.ply")));
-  }
+  if (gt.HasOccluders()) surfaces.Append(ReadMesh(gt.OccludersPath()));
   const Eigen::AlignedBox3f object_box = object.BoundingBox();
   result.diagonal = (object_box.max() - object_box.min()).norm();
   Eigen::AlignedBox3f box = object_box;
@@ -136,20 +134,19 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
       type = fs::exists(stereo + "/depth_maps/" + est_image.name + ".geometric.bin") ? "geometric" : "photometric";
     }
     const std::string depth_path = stereo + "/depth_maps/" + est_image.name + "." + type + ".bin";
-    const std::string true_depth_path = JoinPath(ground_truth_dir, "depth/" + Stem(est_image.name) + ".exr");
+    const std::string true_depth_path = gt.DepthPath(Stem(est_image.name));
     if (!fs::exists(depth_path) || !fs::exists(true_depth_path)) continue;
     result.map_type = type;
     const ColmapMat depth_mat = ReadColmapMat(depth_path);
     const ColmapMat normal_mat = ReadColmapMat(stereo + "/normal_maps/" + est_image.name + "." + type + ".bin");
-    const StereoView est_view =
-        MakeStereoView(estimate, est_image, std::max(depth_mat.width, depth_mat.height));
+    const StereoView est_view = MakeStereoView(estimate, est_image, std::max(depth_mat.width, depth_mat.height));
     if (est_view.width != depth_mat.width || est_view.height != depth_mat.height) {
       RELIGHT_USER_ERROR() << "'" << depth_path << "' does not have the size of its camera; rerun the mvs stage";
     }
     const DepthNormalMap map = FromColmapMaps(depth_mat, normal_mat, est_view.K, depth_path);
     const Image true_depth = ReadImage(true_depth_path);
     Image mask;
-    const std::string mask_path = JoinPath(ground_truth_dir, "masks/" + Stem(est_image.name) + ".png");
+    const std::string mask_path = gt.MaskPath(Stem(est_image.name));
     if (fs::exists(mask_path)) mask = ReadImage(mask_path);
     const Camera& true_camera = truth.cameras.at(true_image->camera_id);
     StereoView true_view;  // pose only; rays come from the (possibly distorted) true camera
@@ -239,8 +236,7 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
       }
       const Eigen::Vector3d Y_est_world =
           est_view.R_cam_from_world.transpose() * (Y_est_cam - est_view.t_cam_from_world);
-      const double z =
-          (true_view.R_cam_from_world * true_from_est.Apply(Y_est_world) + true_view.t_cam_from_world).z();
+      const double z = (true_view.R_cam_from_world * true_from_est.Apply(Y_est_world) + true_view.t_cam_from_world).z();
       return z - true_depth.at(x, y);
     };
     for (int y = 0; y < true_depth.height; ++y) {
@@ -308,8 +304,8 @@ MvsEvaluation EvaluateMvs(const std::string& mvs_dir, const std::string& ground_
     result.fused_mean_distance = Mean(accuracy);
   }
   if (!all_points.empty()) {
-    result.fused_completeness = FractionWithin(DistancesToPoints(object_samples, all_points),
-                                               options.completeness_threshold * result.diagonal);
+    result.fused_completeness =
+        FractionWithin(DistancesToPoints(object_samples, all_points), options.completeness_threshold * result.diagonal);
   }
 
   // ---- mesh

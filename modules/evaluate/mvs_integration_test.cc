@@ -13,8 +13,8 @@
 
 #include "core/log.h"
 #include "core/timer.h"
+#include "evaluate/mvs_evaluation.h"
 #include "mvs/mvs.h"
-#include "mvs/mvs_evaluation.h"
 #include "mvs/test_scene.h"
 #include "testing/testing.h"
 
@@ -32,8 +32,8 @@ TEST(MvsIntegrationTest, SyntheticSceneMeetsTheAccuracyTargets) {
   testing::TempDir dir;
   mvs_test::WriteSfmWorkspace(scene, dir / "sfm");
   mvs_test::WriteGroundTruth(scene, dir / "ground_truth");
-  std::printf("scene: %zu views %dx%d, %zu sparse points, diagonal %.3f (%.1fs)\n", scene.images.size(),
-              camera.width, camera.height, scene.model.points3d.size(), scene.bbox_diagonal, timer.Seconds());
+  std::printf("scene: %zu views %dx%d, %zu sparse points, diagonal %.3f (%.1fs)\n", scene.images.size(), camera.width,
+              camera.height, scene.model.points3d.size(), scene.bbox_diagonal, timer.Seconds());
 
   const MvsOptions options;  // the defaults
   const MvsSummary summary = RunMvs(options, {dir / "sfm"}, dir / "out");
@@ -46,13 +46,13 @@ TEST(MvsIntegrationTest, SyntheticSceneMeetsTheAccuracyTargets) {
   std::printf("%s\n", e.BriefReport().c_str());
   ASSERT_EQ(e.views.size(), 16u);
   EXPECT_EQ(e.map_type, "geometric");
-  EXPECT_NEAR(e.scale, 1.0, 1e-6);  // same frame: the alignment is the identity
+  EXPECT_NEAR(e.scale, 1.0, 1e-6);             // same frame: the alignment is the identity
   EXPECT_GE(e.mean_depth_completeness, 0.80);  // issue 9: ≥ 80% of visible pixels within 1% of the depth range
   EXPECT_GE(e.min_depth_completeness, 0.70);
-  EXPECT_GE(e.fused_accuracy, 0.90);           // within 0.5% of the diagonal
-  EXPECT_GE(e.fused_completeness, 0.90);       // within 1% of the diagonal
+  EXPECT_GE(e.fused_accuracy, 0.90);      // within 0.5% of the diagonal
+  EXPECT_GE(e.fused_completeness, 0.90);  // within 1% of the diagonal
   ASSERT_TRUE(e.has_mesh);
-  EXPECT_LE(e.chamfer, 0.01 * e.diagonal);     // issue 9: Chamfer ≤ 1% of the diagonal
+  EXPECT_LE(e.chamfer, 0.01 * e.diagonal);  // issue 9: Chamfer ≤ 1% of the diagonal
 
   // A killed run resumes image by image: only the missing image is recomputed.
   const MvsWorkspace ws{dir / "out/dense"};

@@ -1,4 +1,4 @@
-#include "relight/ground_truth_frame.h"
+#include "datasets/ground_truth_frame.h"
 
 #include <filesystem>
 
@@ -29,14 +29,12 @@ TriangleMesh GroundTruthFrame::MeshToTruth(TriangleMesh mesh) const {
   return mesh;
 }
 
-GroundTruthFrame RelateToGroundTruth(const std::string& sfm_dir, const std::string& gt_dir) {
+GroundTruthFrame RelateToGroundTruth(const std::string& sfm_dir, const GroundTruth& truth) {
   GroundTruthFrame frame;
-  const bool has_gt =
-      !gt_dir.empty() && (fs::exists(JoinPath(gt_dir, "images.txt")) || fs::exists(JoinPath(gt_dir, "images.bin")));
-  if (!has_gt) {
-    frame.reason =
-        "no ground-truth cameras (" +
-        (gt_dir.empty() ? std::string("no ground-truth folder") : JoinPath(gt_dir, "images.txt") + " is missing") + ")";
+  if (!truth.HasCameras()) {
+    frame.reason = "no ground-truth cameras (" +
+                   (truth.dir().empty() ? std::string("no ground-truth folder") : truth.CamerasFile() + " is missing") +
+                   ")";
     return frame;
   }
   if (sfm_dir.empty() || !fs::is_directory(JoinPath(sfm_dir, "sparse"))) {
@@ -52,8 +50,7 @@ GroundTruthFrame RelateToGroundTruth(const std::string& sfm_dir, const std::stri
     return frame;
   }
   const Reconstruction estimate = Reconstruction::Read(JoinPath(sfm_dir, "sparse"));
-  const Reconstruction truth = Reconstruction::Read(gt_dir);
-  CameraErrors errors = CompareCameras(estimate, truth);
+  CameraErrors errors = CompareCameras(estimate, truth.ReadCameras());
   if (errors.matched < 3) {
     frame.reason = "only " + std::to_string(errors.matched) +
                    " photo(s) are both registered and in the ground truth; at least 3 are needed to align";

@@ -1,4 +1,4 @@
-// mvs_evaluate: scores an mvs stage output against a ground-truth folder (see mvs/mvs_evaluation.h).
+// mvs_evaluate: scores an mvs stage output against a ground-truth folder (see evaluate/mvs_evaluation.h).
 //
 //   mvs_evaluate [--maps=TYPE] [--pixel-centres] MVS_OUTPUT_DIR GROUND_TRUTH_DIR [JSON_OUT]
 //
@@ -14,7 +14,7 @@
 #include "core/error.h"
 #include "core/json.h"
 #include "core/log.h"
-#include "mvs/mvs_evaluation.h"
+#include "evaluate/mvs_evaluation.h"
 
 int main(int argc, char** argv) {
   using namespace relight;
@@ -31,15 +31,17 @@ int main(int argc, char** argv) {
     }
   }
   if (args.size() < 2 || args.size() > 3) {
-    std::fprintf(stderr, "usage: %s [--maps=TYPE] [--pixel-centres] MVS_OUTPUT_DIR GROUND_TRUTH_DIR [JSON_OUT]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s [--maps=TYPE] [--pixel-centres] MVS_OUTPUT_DIR GROUND_TRUTH_DIR [JSON_OUT]\n",
+                 argv[0]);
     return 2;
   }
   InitLogging("mvs_evaluate", "", LogLevel::kWarning);
   try {
     const MvsEvaluation e = EvaluateMvs(args[0], args[1], options);
     std::printf("%s\n", e.BriefReport().c_str());
-    std::printf("completeness: fraction of the object's pixels within 1%% of the view's true depth range over the "
-                "object (obj) / over the scene (scene)\n");
+    std::printf(
+        "completeness: fraction of the object's pixels within 1%% of the view's true depth range over the "
+        "object (obj) / over the scene (scene)\n");
     std::printf("%-24s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "view", "pixels", "range", "scene", "obj", "scene",
                 "missing", "inside", "edge", "med|err|", "med err");
     for (const auto& v : e.views) {
