@@ -85,7 +85,8 @@ struct PipelineOptions {
         .NotInKey();
     t->Add("min_free_gib", &min_free_gib, "Warn before a stage when the workspace disk has less free space (GiB).")
         .Min(0)
-        .NotInKey();
+        .NotInKey()
+        .Advanced();
     t->Add("executor", &executor,
            "Where stages run. local: as child processes on this machine. slurm: as Slurm batch jobs (sbatch), "
            "the per-photo passes of mvs, linearize, observe and relight as job arrays; needs the workspace and the "

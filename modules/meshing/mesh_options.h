@@ -58,27 +58,36 @@ struct MeshOptions {
         .Min(1);
     t->Add("min_component_fraction", &min_component_fraction,
            "Drop kept components scoring less than this fraction of the best one (fused points near it, else area).")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("max_hole_edges", &max_hole_edges, "Fill holes bounded by at most this many edges (0: fill none).").Min(0);
     t->Add("max_hole_fraction", &max_hole_fraction,
            "Fill only holes no wider than this fraction of the mesh's bounding-box diagonal.")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("auto_crop", &auto_crop,
            "Crop to the region seen by the registered cameras: the robust box of the sparse points, and faces "
            "in front of at least mesh.crop_min_views cameras.");
     t->Add("crop_percentile", &crop_percentile, "Robust box: per-axis percentiles [p, 100-p] of the sparse points.")
-        .Range(0, 49);
-    t->Add("crop_margin", &crop_margin, "Robust box grown on each side by this fraction of its largest side.").Min(0);
-    t->Add("crop_min_views", &crop_min_views, "A kept face lies inside at least this many camera frusta.").Min(0);
+        .Range(0, 49)
+        .Advanced();
+    t->Add("crop_margin", &crop_margin, "Robust box grown on each side by this fraction of its largest side.")
+        .Min(0)
+        .Advanced();
+    t->Add("crop_min_views", &crop_min_views, "A kept face lies inside at least this many camera frusta.")
+        .Min(0)
+        .Advanced();
     t->Add("max_point_distance", &max_point_distance,
            "Auto crop: drop faces farther than this fraction of the point cloud's bounding-box diagonal from every "
            "point of <mvs>/fused.ply (else the sparse points): a Poisson surface's closing bubble away from the "
            "data; 0 disables.")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("crop_box", &crop_box, "Optional world-frame box [xmin, ymin, zmin, xmax, ymax, zmax]; faces outside go.");
     t->Add("clean_ground_truth", &clean_ground_truth,
-           "Clean and resample the ground-truth mesh too (default: pass it through unchanged).");
-    t->Add("remesh_iterations", &remesh_iterations, "Isotropic remeshing iterations per pass.").Range(1, 20);
+           "Clean and resample the ground-truth mesh too (default: pass it through unchanged).")
+        .Advanced();
+    t->Add("remesh_iterations", &remesh_iterations, "Isotropic remeshing iterations per pass.").Range(1, 20).Advanced();
   }
   void Check() const {
     if (source == "file" && file.empty()) {

@@ -74,21 +74,28 @@ struct MvsOptions {
         .Range(1, 64);
     t->Add("min_triangulation_angle_deg", &min_triangulation_angle_deg,
            "Sparse points shared with a candidate source view count only when seen under at least this angle.")
-        .Range(0, 60);
+        .Range(0, 60)
+        .Advanced();
     t->Add("min_shared_points", &min_shared_points,
            "A source view must share at least this many such sparse points with the reference image, each "
            "weighted by (1 + cos of its triangulation angle) / 2 (1 for close views, 0.5 at 90 deg, 0.1 at 143 deg).")
-        .Min(1);
+        .Min(1)
+        .Advanced();
     t->Add("window_radius", &window_radius, "Half size of the NCC window in pixels (larger: smoother, slower).")
         .Range(1, 16);
     t->Add("window_step", &window_step, "Sample every n-th pixel of the window (2 halves the samples per axis).")
-        .Range(1, 4);
+        .Range(1, 4)
+        .Advanced();
     t->Add("sigma_color", &sigma_color, "Bilateral weight of the NCC window: grey-level scale (images in [0, 1]).")
-        .Min(1e-3);
-    t->Add("sigma_spatial", &sigma_spatial, "Bilateral weight of the NCC window: spatial scale in pixels.").Min(0.1);
+        .Min(1e-3)
+        .Advanced();
+    t->Add("sigma_spatial", &sigma_spatial, "Bilateral weight of the NCC window: spatial scale in pixels.")
+        .Min(0.1)
+        .Advanced();
     t->Add("num_best_views", &num_best_views,
            "A hypothesis' cost is the mean of its best this-many source views (robust to occlusion).")
-        .Range(1, 64);
+        .Range(1, 64)
+        .Advanced();
     t->Add("num_iterations", &num_iterations, "PatchMatch iterations of the photometric pass.").Range(1, 20);
     t->Add("geom_consistency", &geom_consistency,
            "Run a second pass that adds the forward-backward reprojection error against the other depth maps.");
@@ -100,38 +107,53 @@ struct MvsOptions {
     t->Add("geom_regularizer", &geom_regularizer,
            "Weight of the reprojection error (pixels) against 1 - NCC in the geometric pass; higher trusts the "
            "other views' depths more than the photometric match.")
-        .Min(0);
-    t->Add("geom_max_cost_px", &geom_max_cost_px, "Reprojection errors are truncated at this many pixels.").Min(0.1);
+        .Min(0)
+        .Advanced();
+    t->Add("geom_max_cost_px", &geom_max_cost_px, "Reprojection errors are truncated at this many pixels.")
+        .Min(0.1)
+        .Advanced();
     t->Add("depth_margin", &depth_margin,
            "The depth search range is the 1st..99th percentile of the sparse depths widened by this fraction.")
-        .Range(0, 4);
-    t->Add("seed", &seed, "Random seed of the PatchMatch sampling (results do not depend on threads).").Min(0);
+        .Range(0, 4)
+        .Advanced();
+    t->Add("seed", &seed, "Random seed of the PatchMatch sampling (results do not depend on threads).")
+        .Min(0)
+        .Advanced();
     t->Add("filter_min_ncc", &filter_min_ncc, "A source view supports a pixel when its NCC is at least this.")
-        .Range(-1, 1);
+        .Range(-1, 1)
+        .Advanced();
     t->Add("filter_geom_max_error_px", &filter_geom_max_error_px,
            "... and (geometric pass) its forward-backward reprojection error is at most this many pixels.")
-        .Min(0);
+        .Min(0)
+        .Advanced();
     t->Add("filter_min_triangulation_angle_deg", &filter_min_triangulation_angle_deg,
            "... and it sees the point under at least this triangulation angle.")
-        .Range(0, 60);
+        .Range(0, 60)
+        .Advanced();
     t->Add("filter_min_num_consistent", &filter_min_num_consistent,
            "Depth-map pixels supported by fewer source views are removed.")
-        .Min(1);
+        .Min(1)
+        .Advanced();
     t->Add("filter_min_segment_px", &filter_min_segment_px,
            "Connected depth-map segments (4-neighbours within 2% in depth) smaller than this are removed; 0 disables.")
-        .Min(0);
+        .Min(0)
+        .Advanced();
     t->Add("fusion_min_num_pixels", &fusion_min_num_pixels,
            "colmap stereo_fusion: pixels that must agree on a fused point.")
-        .Min(1);
+        .Min(1)
+        .Advanced();
     t->Add("fusion_max_reproj_error_px", &fusion_max_reproj_error_px,
            "colmap stereo_fusion: reprojection error in pixels for a pixel to join a point.")
-        .Min(0);
+        .Min(0)
+        .Advanced();
     t->Add("fusion_max_depth_error", &fusion_max_depth_error,
            "colmap stereo_fusion: relative depth error for a pixel to join a point.")
-        .Min(0);
+        .Min(0)
+        .Advanced();
     t->Add("fusion_max_normal_error_deg", &fusion_max_normal_error_deg,
            "colmap stereo_fusion: normal angle in degrees for a pixel to join a point.")
-        .Range(0, 180);
+        .Range(0, 180)
+        .Advanced();
     t->Add("mesher", &mesher,
            "colmap_poisson: COLMAP's screened Poisson (fast, fine); cgal_poisson: CGAL's Poisson with Delaunay "
            "refinement (coarser at CGAL's default triangle sizes; see docs/BENCHMARKS.md); none: stop after fusion.")
@@ -140,12 +162,14 @@ struct MvsOptions {
         .Range(5, 14);
     t->Add("poisson_trim", &poisson_trim,
            "colmap_poisson: remove surface of sample density below this (0 keeps the closed surface; COLMAP uses 10).")
-        .Range(0, 20);
+        .Range(0, 20)
+        .Advanced();
     t->Add("close_holes", &close_holes,
            "Triangulate every boundary loop of the mesh (where COLMAP's Poisson surface is clipped by its bounding "
            "box at unobserved sides), so the mesh is closed.");
     t->Add("write_preview", &write_preview, "Render the mesh from the first camera into meshed_preview.png.")
-        .NotInKey();
+        .NotInKey()
+        .Advanced();
   }
   void Check() const {
     if (window_step > window_radius) {

@@ -36,19 +36,23 @@ struct ObserveOptions {
         .Range(0, 89);
     t->Add("depth_tolerance", &depth_tolerance,
            "Relative difference between a vertex's depth and the depth map up to which it counts as visible.")
-        .Range(1e-4, 0.2);
+        .Range(1e-4, 0.2)
+        .Advanced();
     t->Add("edge_margin_px", &edge_margin_px,
            "Confidence rises from 0 at silhouettes and depth edges to 1 at this distance (pixels).")
-        .Range(0, 50);
+        .Range(0, 50)
+        .Advanced();
     t->Add("depth_edge_jump", &depth_edge_jump,
            "Relative depth jump between neighbouring pixels that marks a depth edge.")
-        .Range(1e-3, 1);
+        .Range(1e-3, 1)
+        .Advanced();
     t->Add("min_confidence", &min_confidence, "Observations with lower confidence are dropped.").Range(0, 1);
     t->Add("footprint_scale", &footprint_scale,
            "Colour sampling radius relative to the vertex's projected radius (its share of the surface).")
         .Range(0.25, 4);
     t->Add("border_margin_px", &border_margin_px, "Projections closer than this to the image border are dropped.")
-        .Range(0, 100);
+        .Range(0, 100)
+        .Advanced();
     t->Add("max_distrusted_share", &max_distrusted_share,
            "A footprint holding a larger share of distrusted pixels (linearize: over-exposed, black-clipped or next "
            "to a clipped pixel) gives no ordinary observation: the mean of its remaining pixels would be biased, "
@@ -66,13 +70,15 @@ struct ObserveOptions {
            "ones at their clipped value, flagged as a lower bound of the true radiance; the inverse stage enforces "
            "it only while its prediction falls below (a censored residual), so clipped highlights still say that "
            "the surface is at least this bright there. drop: nothing (observe stage version 3).")
-        .Choices({"lower_bound", "drop"});
+        .Choices({"lower_bound", "drop"})
+        .Advanced();
     t->Add("bound_channels", &bound_channels,
            "Which channels of a lower bound are bounds. clipped: only those with an over-exposed pixel in the "
            "footprint (linearize stats overexposed_linear); the others are ordinary measurements of the same mean "
            "(observe stage version 5). all: every channel, since a pixel is distrusted when one channel clips "
            "(version 4). docs/RESULTS.md@15cf301 measures both.")
-        .Choices({"clipped", "all"});
+        .Choices({"clipped", "all"})
+        .Advanced();
   }
   void Check() const {
     if (grazing_full_deg >= grazing_min_deg) {

@@ -41,7 +41,8 @@ struct LinearizeOptions {
         .Range(0.0, 1.0);
     t->Add("clip_dilation_px", &clip_dilation_px,
            "Pixels within this distance of a clipped pixel also get confidence 0 (blooming, JPEG ringing).")
-        .Range(0, 16);
+        .Range(0, 16)
+        .Advanced();
     t->Add("normalize_exposure", &normalize_exposure,
            "Scale photos to a common exposure (EXIF exposure time, f-number, ISO) when every photo has them.");
   }

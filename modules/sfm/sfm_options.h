@@ -55,7 +55,8 @@ struct SfmOptions {
            "single: one camera for all photos (same camera and size: more stable); per_image: one each "
            "(Internet photos); auto: single when all photos share size and EXIF camera.")
         .Choices({"auto", "single", "per_image"});
-    t->Add("use_exif_focal", &use_exif_focal, "Initialise the focal length from EXIF (ingest's focal_px) as a prior.");
+    t->Add("use_exif_focal", &use_exif_focal, "Initialise the focal length from EXIF (ingest's focal_px) as a prior.")
+        .Advanced();
     t->Add("matcher", &matcher,
            "auto: exhaustive up to sfm.exhaustive_max_photos, else vocab_tree when sfm.vocab_tree is set, else "
            "retrieval; retrieval: each photo matched with its most similar ones, found with a vocabulary built "
@@ -64,16 +65,20 @@ struct SfmOptions {
         .Choices({"auto", "exhaustive", "retrieval", "sequential", "spatial", "vocab_tree"});
     t->Add("exhaustive_max_photos", &exhaustive_max_photos,
            "auto matcher: exhaustive matching (cost grows with the square of the photos) up to this many photos.")
-        .Min(3);
+        .Min(3)
+        .Advanced();
     t->Add("retrieval_neighbors", &retrieval_neighbors,
            "retrieval matcher: the most similar photos each photo is matched with; a photo left with fewer "
            "verified partners than the median photo is matched with more (its partners' partners, then its next "
            "most similar), while that finds it partners, up to 4 times as many. Raise it when photos of a large "
            "collection stay unregistered; matching time grows with it.")
-        .Min(2);
+        .Min(2)
+        .Advanced();
     t->Add("vocab_tree", &vocab_tree, "Vocabulary-tree file for vocab_tree matching (COLMAP's download page).")
         .InputFile();
-    t->Add("sequential_overlap", &sequential_overlap, "Sequential matcher: neighbours matched per photo.").Min(1);
+    t->Add("sequential_overlap", &sequential_overlap, "Sequential matcher: neighbours matched per photo.")
+        .Min(1)
+        .Advanced();
     t->Add("max_image_size", &max_image_size,
            "Longest side in pixels SIFT works on; larger costs memory and time, smaller loses features.")
         .Min(100);
@@ -81,25 +86,30 @@ struct SfmOptions {
            "Grey SIFT features per photo; SIFT features of the photo's colour (log-chromaticity), which survive "
            "changes of light, are added, at most as many. Fewer match faster, more register weakly "
            "textured photos.")
-        .Min(100);
-    t->Add("min_model_size", &min_model_size, "Smallest reconstruction (photos) COLMAP keeps.").Min(2);
+        .Min(100)
+        .Advanced();
+    t->Add("min_model_size", &min_model_size, "Smallest reconstruction (photos) COLMAP keeps.").Min(2).Advanced();
     t->Add("abs_pose_min_num_inliers", &abs_pose_min_num_inliers,
            "Inlier matches needed to register a photo; lower registers weakly linked photos, at some risk.")
-        .Min(6);
+        .Min(6)
+        .Advanced();
     t->Add("abs_pose_min_inlier_ratio", &abs_pose_min_inlier_ratio, "Inlier ratio needed to register a photo.")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("refine_intrinsics", &refine_intrinsics,
            "mapping: refine focal length and distortion during incremental mapping (COLMAP's default; needed "
            "without EXIF); final: keep the EXIF focal fixed while mapping (robust on scenes dominated by a "
            "plane), then refine in one final bundle adjustment; never: keep them; auto: final when every photo "
            "has an EXIF focal length, else mapping.")
-        .Choices({"auto", "mapping", "final", "never"});
+        .Choices({"auto", "mapping", "final", "never"})
+        .Advanced();
     t->Add("refine_principal_point", &refine_principal_point,
            "Refine the principal point in a final bundle adjustment (mapping keeps it at the image centre, where "
            "it is unstable): auto refines it when one camera is shared by at least 10 registered photos, which "
            "constrain it; never keeps the image centre; always refines every camera's (risky with per-photo "
            "cameras and few photos).")
-        .Choices({"auto", "never", "always"});
+        .Choices({"auto", "never", "always"})
+        .Advanced();
     t->Add("min_registered", &min_registered, "Fewer registered photos than this is an error.").Min(2);
     t->Add("allow_partial", &allow_partial,
            "Go on with the largest model when fewer than half of the photos with features register, when they "
@@ -117,14 +127,19 @@ struct SfmOptions {
            "Incremental mapping is repeated from different first pairs until two runs place the cameras the same "
            "way (a wrong reconstruction can look normal); at most this many runs. 1 skips the check (saves time "
            "on large collections).")
-        .Range(1, 16);
+        .Range(1, 16)
+        .Advanced();
     t->Add("align_up", &align_up,
-           "Rotate the COLMAP frame so the mean camera up (-y of the images) is +Z (colmap and model modes).");
+           "Rotate the COLMAP frame so the mean camera up (-y of the images) is +Z (colmap and model modes).")
+        .Advanced();
     t->Add("undistort_max_image_size", &undistort_max_image_size,
            "Longest side of the undistorted dense/ images in pixels; 0 keeps the ingested size.")
-        .Min(0);
-    t->Add("seed", &seed, "COLMAP's random seed.").Min(0);
-    t->Add("keep_database", &keep_database, "Keep colmap/database.db (features and matches) for debugging.").NotInKey();
+        .Min(0)
+        .Advanced();
+    t->Add("seed", &seed, "COLMAP's random seed.").Min(0).Advanced();
+    t->Add("keep_database", &keep_database, "Keep colmap/database.db (features and matches) for debugging.")
+        .NotInKey()
+        .Advanced();
   }
   void Check() const {
     if (mode == "model" && model.empty()) {
