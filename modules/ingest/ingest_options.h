@@ -45,8 +45,8 @@ struct IngestOptions {
         .InputDir()
         .Reads([this] { return PhotoFileSelection(recursive); });
     t->Add("format", &format,
-           "What ingest.images holds: photos (any folder of photos), or diligent (a DiLiGenT object folder: the "
-           "photos, known lights and mask become a scene with ground truth, docs/RESULTS.md).")
+           "What ingest.images holds: photos (any folder of photos), or diligent (a DiLiGenT object "
+           "folder: the photos, known lights and mask become a scene with ground truth).")
         .Choices({"photos", "diligent"});
     t->Add("diligent_sphere_subdivisions", &diligent_sphere_subdivisions,
            "format = diligent: subdivision levels of the icosphere fitted to the ball (5: 10242 vertices).")

@@ -26,9 +26,7 @@ struct MvsOptions {
   int min_shared_points = 5;                  // A source view needs at least this many (weighted) shared points.
   // --- matching cost (bilateral-weighted NCC, Schönberger et al. 2016 §4.1)
   // The window is smaller than COLMAP's (radius 5, σ 5): near silhouettes, depth edges and on curved or
-  // slanted surfaces a wide window moves the cost minimum off the true depth (docs/RESULTS.md@15cf301, "Multi-view
-  // stereo"); 7 × 7 samples with σ = 2 px were the best of the sizes tried on both synthetic scenes there.
-  // (Its one failed chain run was the mesh stage's crop box, fixed since; RESULTS@15cf301, "Default window".)
+  // slanted surfaces a wide window moves the cost minimum off the true depth (docs/TUNING.md).
   int window_radius = 3;        // Half size of the matching window in pixels.
   int window_step = 1;          // Sample every `window_step`-th pixel of the window (1: 49 samples for radius 3).
   double sigma_color = 0.2;     // Bilateral weight: grey-level scale (images in [0, 1]).
@@ -100,9 +98,9 @@ struct MvsOptions {
     t->Add("geom_consistency", &geom_consistency,
            "Run a second pass that adds the forward-backward reprojection error against the other depth maps.");
     t->Add("geom_iterations", &geom_iterations,
-           "PatchMatch iterations of the geometric pass; each matches against the sources' depth maps of the one "
-           "before, so views that disagree converge over iterations. Each costs about a third of the photometric "
-           "pass; raise it when lighting or weak texture leaves the photometric maps noisy.")
+           "PatchMatch iterations of the geometric pass, each against the other views' maps of the one "
+           "before. Each costs about a third of the photometric pass; raise it when changing light or "
+           "weak texture leaves the depth maps noisy.")
         .Range(1, 20);
     t->Add("geom_regularizer", &geom_regularizer,
            "Weight of the reprojection error (pixels) against 1 - NCC in the geometric pass; higher trusts the "
@@ -155,8 +153,8 @@ struct MvsOptions {
         .Range(0, 180)
         .Advanced();
     t->Add("mesher", &mesher,
-           "colmap_poisson: COLMAP's screened Poisson (fast, fine); cgal_poisson: CGAL's Poisson with Delaunay "
-           "refinement (coarser at CGAL's default triangle sizes; see docs/BENCHMARKS.md); none: stop after fusion.")
+           "colmap_poisson: COLMAP's screened Poisson (fast, fine); cgal_poisson: CGAL's Poisson with "
+           "Delaunay refinement (coarser at CGAL's default triangle sizes); none: stop after fusion.")
         .Choices({"colmap_poisson", "cgal_poisson", "none"});
     t->Add("poisson_depth", &poisson_depth, "colmap_poisson: octree depth (more: finer detail, more noise, slower).")
         .Range(5, 14);

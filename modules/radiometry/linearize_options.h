@@ -35,9 +35,9 @@ struct LinearizeOptions {
            "linearize.black_confidence.")
         .Range(0.0, 0.2);
     t->Add("black_confidence", &black_confidence,
-           "Confidence of black-clipped pixels. 0 distrusts them like over-exposed ones (Internet photos: crushed "
-           "shadows hide their true value); 1 keeps them as measurements of 'no light' (linear raw data, where an "
-           "attached shadow is real darkness and its error is at most black_level).")
+           "Confidence of black-clipped pixels. 0 distrusts them like over-exposed ones (Internet "
+           "photos: crushed shadows hide their value); 1 keeps them as measurements of 'no light' "
+           "(linear raw data, where an attached shadow is real darkness).")
         .Range(0.0, 1.0);
     t->Add("clip_dilation_px", &clip_dilation_px,
            "Pixels within this distance of a clipped pixel also get confidence 0 (blooming, JPEG ringing).")

@@ -110,12 +110,9 @@ struct RelightOptions {
         .Choices({"first_envmap", "recovered"})
         .Advanced();
     t->Add("renderer", &renderer,
-           "transport: each vertex's radiance from its visibility map, BRDF and the light filtered to the recovered "
-           "maps' resolution (the inverse stage's own forward model), interpolated across triangles: noise-free "
-           "and fast; a map's sun is split out and traced as a directional light, so its shadows stay sharp. "
-           "monte_carlo: the path-traced reference, per pixel with the full-resolution light; choose it for "
-           "other sharp light (several bright lamps, a window's edge) or meshes coarser than the image's pixels. "
-           "The sampling options below apply to monte_carlo only.")
+           "transport: the inverse stage's own forward model at the recovered maps' resolution (a map's "
+           "sun traced sharp): noise-free and fast. monte_carlo: the path-traced reference, for other "
+           "sharp light (several lamps) or meshes coarser than the pixels.")
         .Choices({"transport", "monte_carlo"});
     t->Add("pixel_samples_per_axis", &pixel_samples_per_axis,
            "Antialiasing: a k x k grid of camera rays per pixel (jittered with monte_carlo).")

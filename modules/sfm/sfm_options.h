@@ -58,10 +58,9 @@ struct SfmOptions {
     t->Add("use_exif_focal", &use_exif_focal, "Initialise the focal length from EXIF (ingest's focal_px) as a prior.")
         .Advanced();
     t->Add("matcher", &matcher,
-           "auto: exhaustive up to sfm.exhaustive_max_photos, else vocab_tree when sfm.vocab_tree is set, else "
-           "retrieval; retrieval: each photo matched with its most similar ones, found with a vocabulary built "
-           "from the collection's own features (no file needed); sequential suits video frames; spatial needs "
-           "GPS in EXIF; vocab_tree: COLMAP's matcher with a downloaded tree.")
+           "Which photo pairs are matched. auto: exhaustive up to exhaustive_max_photos, else vocab_tree "
+           "when vocab_tree is set, else retrieval (each photo with its most similar ones); sequential: "
+           "video frames; spatial: GPS in EXIF.")
         .Choices({"auto", "exhaustive", "retrieval", "sequential", "spatial", "vocab_tree"});
     t->Add("exhaustive_max_photos", &exhaustive_max_photos,
            "auto matcher: exhaustive matching (cost grows with the square of the photos) up to this many photos.")
@@ -112,16 +111,13 @@ struct SfmOptions {
         .Advanced();
     t->Add("min_registered", &min_registered, "Fewer registered photos than this is an error.").Min(2);
     t->Add("allow_partial", &allow_partial,
-           "Go on with the largest model when fewer than half of the photos with features register, when they "
-           "split into separate reconstructions, or when independent mapper runs disagree; by default the stage "
-           "stops and says which photos failed and why. Set it to relight what did register.");
+           "Go on with the largest model when fewer than half of the photos register, when they split "
+           "into separate models, or when mapper runs disagree; by default the stage stops and says "
+           "which photos failed and why.");
     t->Add("mapper", &mapper,
-           "incremental: COLMAP's mapper, one model grown photo by photo (its time grows with about the 2.5th "
-           "power of the photos); hierarchical: COLMAP's hierarchical mapper, which splits the photos into "
-           "clusters (up to 40 photos, plus 10 shared with each neighbouring cluster), maps them in parallel and "
-           "merges them, registers the photos of clusters it could not merge to the merged model and adjusts it "
-           "as a whole (time grows with the photos); auto: hierarchical from 300 photos, above which the "
-           "incremental mapper's time dominates the stage.")
+           "incremental: COLMAP's mapper, one model grown photo by photo (time about photos^2.5); "
+           "hierarchical: clusters mapped in parallel and merged (faster on large collections, cameras "
+           "less accurate); auto: hierarchical from 300 photos.")
         .Choices({"auto", "incremental", "hierarchical"});
     t->Add("max_mapper_runs", &max_mapper_runs,
            "Incremental mapping is repeated from different first pairs until two runs place the cameras the same "

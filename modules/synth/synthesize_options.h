@@ -246,8 +246,7 @@ struct SynthesizeOptions {
         .Range(0, 4096)
         .Advanced();
     t->Add("brdf_samples", &brdf_samples, "BRDF importance samples per shading point.").Range(0, 4096).Advanced();
-    t->Add("interreflection", &interreflection, "Render one bounce of indirect light (the inverse model ignores it).")
-        .Advanced();
+    t->Add("interreflection", &interreflection, "Render one bounce of indirect light.").Advanced();
     t->Add("seed", &seed, "Seed of every random choice and of the renderer.").Min(0);
     t->Add("exposure_key", &exposure_key, "Auto-exposure maps the log-average luminance to this sensor value.")
         .Range(1e-4, 1)
