@@ -65,13 +65,13 @@ struct ObserveOptions {
            "its prediction falls below, so clipped highlights still say the surface is at least this "
            "bright; drop: nothing (the earlier behaviour, kept to compare against).")
         .Choices({"lower_bound", "drop"})
-        .Advanced();
+        .Experimental();
     t->Add("bound_channels", &bound_channels,
            "Which channels of a lower bound are bounds. clipped: only those with an over-exposed pixel "
            "in the footprint; the others are ordinary measurements of the same mean. all: every channel "
            "(the earlier behaviour, kept to compare against).")
         .Choices({"clipped", "all"})
-        .Advanced();
+        .Experimental();
   }
   void Check() const {
     if (grazing_full_deg >= grazing_min_deg) {

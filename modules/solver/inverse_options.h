@@ -86,7 +86,7 @@ struct InverseOptions {
            "the blended wavelet rotation of the vertex normal; the route the method started from, kept "
            "to compare against).")
         .Choices({"pixel", "wavelet"})
-        .Advanced();
+        .Experimental();
     t->Add("transport_keep_energy", &transport_keep_energy,
            "Each transport row keeps the fewest Haar coefficients holding this share of its energy; "
            "lower is faster and coarser.")
@@ -201,7 +201,7 @@ struct InverseOptions {
            "Non-negative lighting QP: projected_newton (active-set Newton on the dense system) or ceres "
            "(bounded Levenberg-Marquardt; slower, kept to compare against).")
         .Choices({"projected_newton", "ceres"})
-        .Advanced();
+        .Experimental();
     t->Add("lighting_max_observations", &lighting_max_observations,
            "Observations per photo used by lighting steps (a fixed random subset when there are more); "
            "more is slower and steadier.")
@@ -263,17 +263,17 @@ struct InverseOptions {
         .Advanced();
     t->Add("fixed_lighting", &fixed_lighting,
            "Use the ground-truth environment maps and solve only the reflectance (synthetic scenes).")
-        .Advanced();
+        .Experimental();
     t->Add("fixed_reflectance", &fixed_reflectance,
            "Use the ground-truth reflectance and solve only the lighting (synthetic scenes with the "
            "ground-truth mesh). With fixed_lighting too, nothing is solved: the truth is written at the "
            "solver's resolution, the ceiling of the scores downstream.")
-        .Advanced();
+        .Experimental();
     t->Add("start_from_truth", &start_from_truth,
            "Start the reflectance (basis, materials and weights) from the ground truth instead of "
            "k-means, then solve as usual (synthetic scenes with the ground-truth mesh): how much of the "
            "error is the starting point.")
-        .Advanced();
+        .Experimental();
   }
   void Check() const {
     if (env_resolution & (env_resolution - 1)) {
