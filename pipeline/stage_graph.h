@@ -97,15 +97,18 @@ struct PipelineOptions {
            "Tasks per job array, each doing every N-th photo of a pass. Raise it toward the number of "
            "photos when the cluster has more free CPUs than shards × slurm_cpus_per_task.")
         .Min(1)
-        .NotInKey();
+        .NotInKey()
+        .OnlyWhen("executor", {"slurm"});
     t->Add("slurm_cpus_per_task", &slurm_cpus_per_task,
            "CPUs every job asks for (--cpus-per-task); the stage uses that many threads.")
         .Min(1)
-        .NotInKey();
+        .NotInKey()
+        .OnlyWhen("executor", {"slurm"});
     t->Add("slurm_sbatch_args", &slurm_sbatch_args,
            "Arguments added to every sbatch command, one per list item, e.g. [\"--partition=cpu\", "
            "\"--time=04:00:00\", \"--mem=8G\"].")
-        .NotInKey();
+        .NotInKey()
+        .OnlyWhen("executor", {"slurm"});
   }
   void Check() const {}
 };

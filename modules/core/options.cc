@@ -460,8 +460,10 @@ void OptionTable::Validate(const std::string& where) const {
       RELIGHT_USER_ERROR() << (f.set_where().empty() ? where : f.set_where()) << ": option '" << section_ << "."
                            << f.name() << "' = " << f.ValueText() << " has no effect while " << section_ << "."
                            << c.controller << " is '" << state << "' (it applies only when " << c.controller << " is "
-                           << JoinStrings(c.values, " or ") << "): remove the key, or set " << section_ << "."
-                           << c.controller << ": " << c.values.front();
+                           << JoinStrings(c.values, " or ")
+                           << "): remove the key (or, when a base config sets it, set it to its "
+                           << "default " << (f.default_text().empty() ? "\"\"" : f.default_text()) << "), or set "
+                           << section_ << "." << c.controller << ": " << c.values.front();
     }
   }
 }

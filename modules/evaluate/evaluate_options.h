@@ -66,12 +66,14 @@ struct EvaluateOptions {
     t->Add("loo_max_photos", &loo_max_photos,
            "Photos scored by leave-one-photo-out, evenly spread over the collection; 0: all. Each costs one short "
            "reflectance solve: raise it for a score over more of the collection.")
-        .Min(0);
+        .Min(0)
+        .OnlyWhen("leave_one_out", {"auto", "always"});
     t->Add("loo_max_iterations", &loo_max_iterations,
            "Outer iterations of each leave-one-out solve started from its group's reflectance (solved without the "
            "group's photos); 0: inverse.max_iterations. Raise it when the folds' iterations still lower the error.")
         .Min(0)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("leave_one_out", {"auto", "always"});
     t->Retired("loo_light_samples",
                "leave-one-out renders use the relight stage's renderer and samples (relight.renderer); delete the key");
     t->Retired("loo_brdf_samples",

@@ -51,7 +51,8 @@ struct IngestOptions {
     t->Add("diligent_sphere_subdivisions", &diligent_sphere_subdivisions,
            "format = diligent: subdivision levels of the icosphere fitted to the ball (5: 10242 vertices).")
         .Range(2, 8)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("format", {"diligent"});
     t->Add("ground_truth", &ground_truth,
            "Optional ground-truth folder (docs/FORMATS.md) copied along for the evaluate stage.")
         .InputDir();

@@ -101,15 +101,18 @@ struct MvsOptions {
            "PatchMatch iterations of the geometric pass, each against the other views' maps of the one "
            "before. Each costs about a third of the photometric pass; raise it when changing light or "
            "weak texture leaves the depth maps noisy.")
-        .Range(1, 20);
+        .Range(1, 20)
+        .OnlyWhen("geom_consistency", {"true"});
     t->Add("geom_regularizer", &geom_regularizer,
            "Weight of the reprojection error (pixels) against 1 - NCC in the geometric pass; higher trusts the "
            "other views' depths more than the photometric match.")
         .Min(0)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("geom_consistency", {"true"});
     t->Add("geom_max_cost_px", &geom_max_cost_px, "Reprojection errors are truncated at this many pixels.")
         .Min(0.1)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("geom_consistency", {"true"});
     t->Add("depth_margin", &depth_margin,
            "The depth search range is the 1st..99th percentile of the sparse depths widened by this fraction.")
         .Range(0, 4)
@@ -123,7 +126,8 @@ struct MvsOptions {
     t->Add("filter_geom_max_error_px", &filter_geom_max_error_px,
            "... and (geometric pass) its forward-backward reprojection error is at most this many pixels.")
         .Min(0)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("geom_consistency", {"true"});
     t->Add("filter_min_triangulation_angle_deg", &filter_min_triangulation_angle_deg,
            "... and it sees the point under at least this triangulation angle.")
         .Range(0, 60)
@@ -157,11 +161,13 @@ struct MvsOptions {
            "Delaunay refinement (coarser at CGAL's default triangle sizes); none: stop after fusion.")
         .Choices({"colmap_poisson", "cgal_poisson", "none"});
     t->Add("poisson_depth", &poisson_depth, "colmap_poisson: octree depth (more: finer detail, more noise, slower).")
-        .Range(5, 14);
+        .Range(5, 14)
+        .OnlyWhen("mesher", {"colmap_poisson"});
     t->Add("poisson_trim", &poisson_trim,
            "colmap_poisson: remove surface of sample density below this (0 keeps the closed surface; COLMAP uses 10).")
         .Range(0, 20)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("mesher", {"colmap_poisson"});
     t->Add("close_holes", &close_holes,
            "Triangulate every boundary loop of the mesh (where COLMAP's Poisson surface is clipped by its bounding "
            "box at unobserved sides), so the mesh is closed.");

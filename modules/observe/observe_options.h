@@ -71,7 +71,8 @@ struct ObserveOptions {
            "in the footprint; the others are ordinary measurements of the same mean. all: every channel "
            "(the earlier behaviour, kept to compare against).")
         .Choices({"clipped", "all"})
-        .Experimental();
+        .Experimental()
+        .OnlyWhen("clipped_footprints", {"lower_bound"});
   }
   void Check() const {
     if (grazing_full_deg >= grazing_min_deg) {

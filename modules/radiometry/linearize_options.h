@@ -26,7 +26,9 @@ struct LinearizeOptions {
            "Transfer curve of 8/16-bit photos: srgb (Internet photos), gamma (pure power law), linear (raw data). "
            "Float inputs (EXR/HDR) are always linear.")
         .Choices({"srgb", "gamma", "linear"});
-    t->Add("gamma", &gamma, "Exponent of the power law when transfer = gamma.").Range(1.0, 4.0);
+    t->Add("gamma", &gamma, "Exponent of the power law when transfer = gamma.")
+        .Range(1.0, 4.0)
+        .OnlyWhen("transfer", {"gamma"});
     t->Add("saturation_level", &saturation_level,
            "Encoded value (0..1) at or above which a channel counts as over-exposed; such pixels get confidence 0.")
         .Range(0.5, 1.0);

@@ -75,11 +75,13 @@ struct RelightOptions {
            "Also render under a directional (sun-like) light plus a dim uniform sky (ambient_fraction).");
     t->Add("directional_elevation_deg", &directional_elevation_deg, "Elevation of the directional light [deg].")
         .Range(-90, 90)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("directional_light", {"true"});
     t->Add("directional_azimuth_deg", &directional_azimuth_deg,
            "Azimuth of the directional light relative to the first orbit camera's azimuth [deg].")
         .Range(-360, 360)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("directional_light", {"true"});
     t->Add("point_light", &point_light,
            "Also render under a point light above and beside each camera plus a dim uniform sky.");
     t->Add("ambient_fraction", &ambient_fraction,

@@ -79,7 +79,9 @@ struct InverseOptions {
            "specular object with detailed reflections; 16 for a quick look at a small collection "
            "(docs/TUNING.md).")
         .Range(4, 128);
-    t->Add("sh_order", &sh_order, "Highest spherical-harmonics band ((order+1)² coefficients per map).").Range(1, 8);
+    t->Add("sh_order", &sh_order, "Highest spherical-harmonics band ((order+1)² coefficients per map).")
+        .Range(1, 8)
+        .OnlyWhen("lighting_basis", {"sh"});
     t->Add("transport", &transport,
            "How transport rows are built: pixel (the local hemisphere splatted onto the global map, then "
            "Haar) or wavelet (product projection of visibility and a tabulated BRDF slice, rotated by "
@@ -103,14 +105,16 @@ struct InverseOptions {
            "(mesh.source ground_truth or file), whose normals are the surface's; off for an MVS "
            "reconstruction, whose normals inside a footprint are estimates.")
         .Choices({"auto", "on", "off"})
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("transport", {"pixel"});
     t->Add("transport_supersampling", &transport_supersampling,
            "Each visibility texel's BRDF slice and splat onto the global map are evaluated at this many "
            "points per side. 0: automatic, enough for one splat per global texel side (1 at the default "
            "resolutions, 2 when env_resolution is twice visibility.resolution); raise it only to check "
            "that narrow lobes do not alias.")
         .Range(0, 8)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("transport", {"pixel"});
     t->Add("basis", &basis,
            "Basis BRDFs every material blends: lambertian, ggx:ALPHA[:F0], cook_torrance:ALPHA[:F0], "
            "phong:EXPONENT; the first Lambertian lobe carries the albedo. Fewer lobes solve faster; give "
@@ -166,19 +170,22 @@ struct InverseOptions {
            "What fills the directions the photos say little about: natural (a fitted daylight model: "
            "sky, sun, a ground lit by them) or smooth (a flat fill from the seen directions). Choose "
            "smooth for indoor, studio or lab light.")
-        .Choices({"natural", "smooth"});
+        .Choices({"natural", "smooth"})
+        .OnlyWhen("lighting_basis", {"haar"});
     t->Add("wavelet_sparsity", &wavelet_sparsity,
            "Weight of a sparsity prior on every map's Haar coefficients (group L1 over each "
            "coefficient's RGB magnitude, relative to the system's largest diagonal value and the map's "
            "mean radiance; reweighted in every IRLS pass). It keeps what the photos support (a sun, a "
            "skyline) and drops colour noise; higher blurs the lighting, 0 leaves the Laplacian alone.")
         .Range(0, 100)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("lighting_basis", {"haar"});
     t->Add("wavelet_sparsity_floor", &wavelet_sparsity_floor,
            "Smallest coefficient magnitude the sparsity reweighting divides by, relative to the map's "
            "mean radiance.")
         .Range(1e-6, 10)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("lighting_basis", {"haar"});
     t->Add("irls_iterations", &irls_iterations,
            "Iteratively reweighted least-squares passes per lighting step (weights restart every step).")
         .Range(1, 20)
@@ -190,13 +197,15 @@ struct InverseOptions {
         .Advanced();
     t->Add("robust_scale", &robust_scale, "Robust threshold in units of the residuals' robust standard deviation.")
         .Range(0.1, 100)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("robust_loss", {"huber", "cauchy"});
     t->Add("robust_reflectance", &robust_reflectance,
            "Reweight the reflectance step (materials and weights) robustly too, from the current model's "
            "residuals, so transient occluders seen in few photos stay out of the materials; convergence "
            "is then judged on the robustly weighted objective. Set it for collections with many "
            "transients (people, cars); without outliers it slows the joint fit.")
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("robust_loss", {"huber", "cauchy"});
     t->Add("qp_solver", &qp_solver,
            "Non-negative lighting QP: projected_newton (active-set Newton on the dense system) or ceres "
            "(bounded Levenberg-Marquardt; slower, kept to compare against).")
@@ -211,7 +220,8 @@ struct InverseOptions {
            "The first iterations solve the lighting at half resolution (Haar coarse levels only; 8x "
            "cheaper), then at full resolution.")
         .Range(0, 100)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("lighting_basis", {"haar"});
     t->Add("map_resolution", &map_resolution,
            "After the solve, measure what the photos determine of every map (lighting.json): the trace "
            "of the lighting step's resolution matrix per wavelet level and the finest detail resolved. "
@@ -255,12 +265,14 @@ struct InverseOptions {
            "iterations per candidate; solve_summary.json lists them.");
     t->Add("selection_iterations", &selection_iterations, "Alternation iterations per candidate model.")
         .Range(2, 50)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("select_model", {"true"});
     t->Add("selection_tolerance", &selection_tolerance,
            "Model selection keeps the simplest model whose held-out error is within this fraction of the "
            "best.")
         .Range(0, 1)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("select_model", {"true"});
     t->Add("fixed_lighting", &fixed_lighting,
            "Use the ground-truth environment maps and solve only the reflectance (synthetic scenes).")
         .Experimental();

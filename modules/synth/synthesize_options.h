@@ -143,27 +143,33 @@ struct SynthesizeOptions {
            "square: a square of side ground_size; disk: a round ground of diameter ground_size (no corners "
            "in view).")
         .Choices({"square", "disk"})
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("ground_size", &ground_size, "Side (square) or diameter (disk) of the ground [object sizes].")
         .Min(1)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("ground_cells", &ground_cells,
            "Grid cells per side of the ground (disk: ground_cells / 2 rings); its texture lives on vertices.")
         .Range(1, 4096)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("ground_pattern_frequency", &ground_pattern_frequency, "Ground pattern cycles per object size.")
         .Min(1e-3)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("ground_pattern", &ground_pattern,
            "Ground texture: mosaic (a random colour per cell with fractal detail, over three primary materials: "
            "distinctive features for structure from motion), noise (the stone materials' fractal pattern) or plain "
            "(the first ground material everywhere: no features but the shadows).")
         .Choices({"mosaic", "noise", "plain"})
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("ground_materials", &ground_materials,
            "materials.json of the ground and blockers; empty: built-in pale stone, dark stone, sand (Lambertian).")
         .InputFile()
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("num_blockers", &num_blockers, "Boxes standing beside the object that cast shadows on it.").Range(0, 16);
     t->Add("blocker_height", &blocker_height, "Height of a blocker [object sizes].").Min(1e-3).Advanced();
     t->Add("blocker_width", &blocker_width, "Side of a blocker's square footprint [object sizes].")
@@ -238,7 +244,8 @@ struct SynthesizeOptions {
         .Advanced();
     t->Add("radial_distortion_max", &radial_distortion_max, "SIMPLE_RADIAL k uniform in [-max, max].")
         .Range(0, 0.3)
-        .Advanced();
+        .Advanced()
+        .OnlyWhen("camera_model", {"SIMPLE_RADIAL"});
     t->Add("pixel_samples_per_axis", &pixel_samples_per_axis, "Antialiasing: k x k camera rays per pixel.")
         .Range(1, 16)
         .Advanced();
