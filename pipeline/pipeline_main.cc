@@ -232,6 +232,7 @@ int CmdStages() {
 int CmdOptions(const std::string& stage, bool markdown) {
   PipelineOptions pipeline_options;
   OptionTable pipeline_table = MakeOptionTable("pipeline", &pipeline_options);
+  std::string experimental_rows = pipeline_table.MarkdownExperimentalRows();
   if (stage.empty() || stage == "pipeline") {
     std::cout << (markdown ? "### pipeline\n\nThe orchestrator itself.\n\n" + pipeline_table.MarkdownReference() + "\n"
                            : pipeline_table.HelpText() + "\n");
@@ -244,11 +245,20 @@ int CmdOptions(const std::string& stage, bool markdown) {
     if (markdown) {
       std::cout << "### " << s.name() << "\n\n" << s.info.description << "\n\n"
                 << holder->table().MarkdownReference() << "\n";
+      experimental_rows += holder->table().MarkdownExperimentalRows();
     } else {
       std::cout << s.name() << ": " << s.info.description << "\n" << holder->table().HelpText() << "\n";
     }
   }
   if (!found) RELIGHT_USER_ERROR() << "no stage named '" << stage << "'; see `pipeline stages`";
+  // Measurement switches close the whole reference (or a stage's, with STAGE), apart from the user's tables.
+  if (markdown && !experimental_rows.empty()) {
+    std::cout << "### Measurement switches (for tests and docs/RESULTS.md; not for production runs)\n\n"
+              << "Ground truth fed into a stage, or a superseded method kept to compare against. A stage run "
+                 "with one of them away from its default logs a warning.\n\n"
+              << "| key | type | default | allowed | description |\n|---|---|---|---|---|\n"
+              << experimental_rows << "\n";
+  }
   return 0;
 }
 

@@ -85,26 +85,30 @@ struct PipelineOptions {
         .NotInKey();
     t->Add("min_free_gib", &min_free_gib, "Warn before a stage when the workspace disk has less free space (GiB).")
         .Min(0)
-        .NotInKey();
+        .NotInKey()
+        .Advanced();
     t->Add("executor", &executor,
-           "Where stages run. local: as child processes on this machine. slurm: as Slurm batch jobs (sbatch), "
-           "the per-photo passes of mvs, linearize, observe and relight as job arrays; needs the workspace and the "
-           "build's bin/ folder on a file system every node sees. Results and cache keys equal a local run's.")
+           "Where stages run. local: as child processes on this machine. slurm: as Slurm batch jobs, the "
+           "per-photo passes as job arrays; needs the workspace and the build's bin/ folder on a file "
+           "system every node sees. Results and cache keys equal a local run's.")
         .Choices({"local", "slurm"})
         .NotInKey();
     t->Add("slurm_shards", &slurm_shards,
-           "executor slurm: tasks per job array, each doing every N-th photo of a pass. Raise it toward the number "
-           "of photos when the cluster has more free CPUs than shards × slurm_cpus_per_task.")
+           "Tasks per job array, each doing every N-th photo of a pass. Raise it toward the number of "
+           "photos when the cluster has more free CPUs than shards × slurm_cpus_per_task.")
         .Min(1)
-        .NotInKey();
+        .NotInKey()
+        .OnlyWhen("executor", {"slurm"});
     t->Add("slurm_cpus_per_task", &slurm_cpus_per_task,
-           "executor slurm: CPUs every job asks for (--cpus-per-task); the stage uses that many threads.")
+           "CPUs every job asks for (--cpus-per-task); the stage uses that many threads.")
         .Min(1)
-        .NotInKey();
+        .NotInKey()
+        .OnlyWhen("executor", {"slurm"});
     t->Add("slurm_sbatch_args", &slurm_sbatch_args,
-           "executor slurm: arguments added to every sbatch command, one per list item, e.g. "
-           "[\"--partition=cpu\", \"--time=04:00:00\", \"--mem=8G\"].")
-        .NotInKey();
+           "Arguments added to every sbatch command, one per list item, e.g. [\"--partition=cpu\", "
+           "\"--time=04:00:00\", \"--mem=8G\"].")
+        .NotInKey()
+        .OnlyWhen("executor", {"slurm"});
   }
   void Check() const {}
 };

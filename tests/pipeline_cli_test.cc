@@ -4,6 +4,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
 
 #include "core/fs.h"
 #include "core/json.h"
@@ -251,6 +254,31 @@ TEST_F(PipelineCliTest, ShippedConfigsResolve) {
     ++checked;
   }
   EXPECT_GE(checked, 9);
+}
+
+// Every stage's public table fits on one screen; the rest is under "#### <stage> — advanced" (issue 35).
+TEST_F(PipelineCliTest, PublicOptionsFitOnOneScreen) {
+  std::string out;
+  ASSERT_EQ(Pipeline("options --markdown", &out), 0);
+  std::istringstream lines(out);
+  std::string line, section;
+  std::map<std::string, int> public_rows;
+  bool in_public = false;
+  while (std::getline(lines, line)) {
+    if (line.rfind("### ", 0) == 0) {
+      section = line.substr(4);
+      in_public = true;
+    } else if (line.rfind("#### ", 0) == 0) {
+      in_public = false;
+    } else if (in_public && line.rfind("| `", 0) == 0) {
+      ++public_rows[section];
+    }
+  }
+  EXPECT_GE(public_rows.size(), 10u) << out;
+  for (const auto& [stage, rows] : public_rows) {
+    if (stage.rfind("Measurement switches", 0) == 0) continue;
+    EXPECT_LE(rows, 12) << stage << ": mark the options most runs leave alone .Advanced()";
+  }
 }
 
 TEST_F(PipelineCliTest, ConfigReferenceIsUpToDate) {

@@ -157,6 +157,24 @@ OptionField& OptionField::NotInKey() {
   in_key_ = false;
   return *this;
 }
+OptionField& OptionField::Advanced() {
+  tier_ = Tier::kAdvanced;
+  return *this;
+}
+OptionField& OptionField::Experimental() {
+  tier_ = Tier::kExperimental;
+  return *this;
+}
+OptionField& OptionField::OnlyWhen(std::string controller, std::vector<std::string> values) {
+  conditions_.push_back({std::move(controller), std::move(values)});
+  return *this;
+}
+
+std::string OptionField::ConditionText() const {
+  std::vector<std::string> parts;
+  for (const auto& c : conditions_) parts.push_back(c.controller + ": " + JoinStrings(c.values, " or "));
+  return parts.empty() ? "" : "only when " + JoinStrings(parts, " and ");
+}
 
 bool OptionField::is_input_path() const {
   return path_role_ == PathRole::kInputFile || path_role_ == PathRole::kInputDir ||
@@ -273,6 +291,7 @@ void OptionField::SetFromText(const std::string& text, const std::string& where)
                         },
                         [&](std::vector<std::string>* v) { *v = SplitList(text); }},
              target_);
+  set_where_ = where;
   Validate(where);
 }
 
@@ -294,6 +313,7 @@ void OptionField::SetFromYaml(const YAML::Node& node, const std::string& where) 
     }
     if (std::holds_alternative<std::vector<std::string>*>(target_)) {
       *std::get<std::vector<std::string>*>(target_) = items;
+      set_where_ = where;
       Validate(where);
     } else {
       SetFromText(JoinStrings(items, ","), where);
@@ -303,6 +323,7 @@ void OptionField::SetFromYaml(const YAML::Node& node, const std::string& where) 
   if (node.IsNull()) {
     if (std::holds_alternative<std::string*>(target_)) {
       *std::get<std::string*>(target_) = "";
+      set_where_ = where;
       return;
     }
     RELIGHT_USER_ERROR() << where << ": option '" << name_ << "' has no value; expected a " << TypeName();
@@ -429,6 +450,22 @@ void OptionTable::ApplyText(const std::string& name, const std::string& value, c
 
 void OptionTable::Validate(const std::string& where) const {
   for (const auto& f : fields_) f.Validate(where);
+  for (const auto& f : fields_) {
+    for (const auto& c : f.conditions()) {
+      const OptionField* controller = Find(c.controller);
+      RELIGHT_CHECK(controller != nullptr)
+          << section_ << "." << f.name() << ": OnlyWhen names no option '" << c.controller << "'";
+      const std::string state = controller->ValueText();
+      if (f.is_default() || std::find(c.values.begin(), c.values.end(), state) != c.values.end()) continue;
+      RELIGHT_USER_ERROR() << (f.set_where().empty() ? where : f.set_where()) << ": option '" << section_ << "."
+                           << f.name() << "' = " << f.ValueText() << " has no effect while " << section_ << "."
+                           << c.controller << " is '" << state << "' (it applies only when " << c.controller << " is "
+                           << JoinStrings(c.values, " or ")
+                           << "): remove the key (or, when a base config sets it, set it to its "
+                           << "default " << (f.default_text().empty() ? "\"\"" : f.default_text()) << "), or set "
+                           << section_ << "." << c.controller << ": " << c.values.front();
+    }
+  }
 }
 
 std::string OptionTable::CanonicalText(const DigestFn& digest) const {
@@ -475,27 +512,73 @@ YAML::Node OptionTable::ToYaml() const {
   return node;
 }
 
+namespace {
+
+// One markdown table row of `f` in `section`.
+std::string MarkdownRow(const std::string& section, const OptionField& f) {
+  std::vector<std::string> allowed;
+  for (const std::string& part : {f.ConstraintText(), f.ConditionText()})
+    if (!part.empty()) allowed.push_back(part);
+  if (!f.in_key()) allowed.push_back("not in cache key");
+  const std::string def = f.default_text().empty() ? "\"\"" : f.default_text();
+  return "| `" + section + "." + f.name() + "` | " + f.TypeName() + " | `" + def + "` | " + JoinStrings(allowed, "; ") +
+         " | " + f.doc() + " |\n";
+}
+
+constexpr const char* kMarkdownHeader = "| key | type | default | allowed | description |\n|---|---|---|---|---|\n";
+
+}  // namespace
+
 std::string OptionTable::MarkdownReference() const {
-  std::ostringstream out;
-  out << "| key | type | default | allowed | description |\n|---|---|---|---|---|\n";
+  std::string public_rows, advanced_rows;
   for (const auto& f : fields_) {
-    std::string def = f.default_text().empty() ? "\"\"" : f.default_text();
-    out << "| `" << section_ << "." << f.name() << "` | " << f.TypeName() << " | `" << def << "` | "
-        << f.ConstraintText() << (f.in_key() ? "" : (f.ConstraintText().empty() ? "" : "; ")) 
-        << (f.in_key() ? "" : "not in cache key") << " | " << f.doc() << " |\n";
+    if (f.tier() == OptionField::Tier::kPublic) public_rows += MarkdownRow(section_, f);
+    if (f.tier() == OptionField::Tier::kAdvanced) advanced_rows += MarkdownRow(section_, f);
   }
-  return out.str();
+  std::string out = public_rows.empty() ? "" : kMarkdownHeader + public_rows;
+  if (!advanced_rows.empty()) {
+    out += (out.empty() ? "" : "\n") + std::string("#### ") + section_ + " — advanced\n\n" + kMarkdownHeader +
+           advanced_rows;
+  }
+  return out;
+}
+
+std::string OptionTable::MarkdownExperimentalRows() const {
+  std::string rows;
+  for (const auto& f : fields_)
+    if (f.tier() == OptionField::Tier::kExperimental) rows += MarkdownRow(section_, f);
+  return rows;
+}
+
+std::vector<std::string> OptionTable::ExperimentalInUse() const {
+  std::vector<std::string> names;
+  for (const auto& f : fields_)
+    if (f.tier() == OptionField::Tier::kExperimental && !f.is_default()) names.push_back(section_ + "." + f.name());
+  return names;
 }
 
 std::string OptionTable::HelpText() const {
   std::ostringstream out;
   out << "Options (config section '" << section_ << "', or --set " << section_ << ".NAME=VALUE):\n";
-  for (const auto& f : fields_) {
-    std::string def = f.default_text().empty() ? "\"\"" : f.default_text();
-    out << "  " << section_ << "." << f.name() << " (" << f.TypeName() << ", default " << def << ")";
-    const std::string c = f.ConstraintText();
-    if (!c.empty()) out << " [" << c << "]";
-    out << "\n      " << f.doc() << "\n";
+  const std::pair<OptionField::Tier, const char*> groups[] = {
+      {OptionField::Tier::kPublic, ""},
+      {OptionField::Tier::kAdvanced, "Advanced options:\n"},
+      {OptionField::Tier::kExperimental,
+       "Measurement switches (for tests and docs/RESULTS.md; not for production runs):\n"}};
+  for (const auto& [tier, title] : groups) {
+    bool first = true;
+    for (const auto& f : fields_) {
+      if (f.tier() != tier) continue;
+      if (first) out << title;
+      first = false;
+      std::string def = f.default_text().empty() ? "\"\"" : f.default_text();
+      out << "  " << section_ << "." << f.name() << " (" << f.TypeName() << ", default " << def << ")";
+      std::vector<std::string> constraints;
+      for (const std::string& part : {f.ConstraintText(), f.ConditionText()})
+        if (!part.empty()) constraints.push_back(part);
+      if (!constraints.empty()) out << " [" << JoinStrings(constraints, "; ") << "]";
+      out << "\n      " << f.doc() << "\n";
+    }
   }
   return out.str();
 }

@@ -17,6 +17,11 @@
 // errors, `--set key=value` overrides, `--help` text, the config reference in
 // docs, the canonical serialization that enters the cache key, and the fully
 // resolved config written beside each stage's outputs.
+//
+// A stage shows users a handful of public options; `.Advanced()` moves tuning
+// most runs leave alone to a second table, `.Experimental()` moves measurement
+// switches out of both. `.OnlyWhen("mode", {"a"})` marks an option the other
+// modes ignore: setting it then is an error (as pbrt treats unused parameters).
 #pragma once
 
 #include <functional>
@@ -64,6 +69,15 @@ class OptionField {
   OptionField& NotInKey();
   // A list option must have exactly `n` entries.
   OptionField& Size(int n);
+  // Tuning most runs leave alone: listed in the reference's advanced table, after the stage's public options.
+  OptionField& Advanced();
+  // A measurement switch (ground truth fed in, a superseded route kept for comparison): listed only in the
+  // reference's closing table, and a stage run that sets it away from its default logs a warning.
+  OptionField& Experimental();
+  // The option matters only while option `controller` of the same section holds one of `values` (canonical
+  // text: "true" for a bool). The reference says so, and OptionTable::Validate rejects a value other than the
+  // default while the condition is false (an ignored option is a mistake). Repeatable: all must hold.
+  OptionField& OnlyWhen(std::string controller, std::vector<std::string> values);
   // An input folder: the files the stage reads from it (called when the key is
   // computed, so it may depend on other options of the same struct). Only
   // these files' names and contents enter the cache key. Default: every file.
@@ -77,6 +91,20 @@ class OptionField {
   // The files of an input folder the stage reads (Reads(); default: all).
   FileSelection selection() const { return selection_ ? selection_() : FileSelection{}; }
   const std::vector<std::string>& choices() const { return choices_; }
+  enum class Tier { kPublic, kAdvanced, kExperimental };
+  Tier tier() const { return tier_; }
+  // One OnlyWhen() condition: the controlling option and the values under which this one matters.
+  struct Condition {
+    std::string controller;
+    std::vector<std::string> values;
+  };
+  const std::vector<Condition>& conditions() const { return conditions_; }
+  // The conditions as text: "only when lighting_basis: sh"; "" when none.
+  std::string ConditionText() const;
+  // True when the current value equals the default.
+  bool is_default() const { return ValueText() == default_text_; }
+  // "file:line" (or "--set key") where the value was last set; "" while it is the declared default.
+  const std::string& set_where() const { return set_where_; }
   // "int", "float", "bool", "string", "path", "list of float", ...
   std::string TypeName() const;
   // Human readable constraints: "≥ 1", "one of: a, b", "" when none.
@@ -114,7 +142,10 @@ class OptionField {
   std::vector<std::string> choices_;
   PathRole path_role_ = PathRole::kNone;
   bool in_key_ = true;
+  Tier tier_ = Tier::kPublic;
+  std::vector<Condition> conditions_;
   std::string default_text_;
+  std::string set_where_;
   std::function<FileSelection()> selection_;
 };
 
@@ -149,7 +180,8 @@ class OptionTable {
                   const std::string& file, const std::string& base_dir);
   // Applies one `name=value` override (from --set); relative paths resolve against the CWD.
   void ApplyText(const std::string& name, const std::string& value, const std::string& where);
-  // Validates every field's constraints.
+  // Validates every field's constraints, then the OnlyWhen() conditions: an option set away from its default
+  // while its controlling option makes the stage ignore it throws UserError naming both and what to do.
   void Validate(const std::string& where) const;
 
   // Content digest of an input path: a file's bytes, or the files a folder
@@ -162,10 +194,15 @@ class OptionTable {
   std::string CanonicalText(const DigestFn& digest) const;
   // The resolved values as a YAML mapping node (all fields, including NotInKey ones).
   YAML::Node ToYaml() const;
-  // Markdown table of the options: key, type, default, constraints, doc.
+  // Markdown tables (key, type, default, constraints, doc): the public options, then, under a heading
+  // "#### <section> — advanced", the advanced ones. Experimental options are left out.
   std::string MarkdownReference() const;
-  // Plain text for --help.
+  // Table rows (no header) of the experimental options, for the reference's closing table; "" when none.
+  std::string MarkdownExperimentalRows() const;
+  // Plain text for --help: public options, then advanced ones, then measurement switches.
   std::string HelpText() const;
+  // Names of the experimental options whose value is not the default (a stage warns about them).
+  std::vector<std::string> ExperimentalInUse() const;
 
  private:
   std::map<std::string, std::string> retired_;  // name -> what to do

@@ -172,6 +172,64 @@ TEST(OptionsTest, TextOverrides) {
   EXPECT_THROW(t.ApplyText("nope", "1", "--set"), UserError);
 }
 
+// Options a mode ignores: `order` matters only for mode exact, `trace` only for a true flag.
+struct ModalOptions {
+  std::string mode = "fast";
+  int order = 2;
+  bool flag = false;
+  double trace = 0;
+  bool truth = false;
+  void Declare(OptionTable* t) {
+    t->Add("mode", &mode, "Mode.").Choices({"fast", "exact"});
+    t->Add("order", &order, "Order.").OnlyWhen("mode", {"exact"}).Advanced();
+    t->Add("flag", &flag, "A flag.");
+    t->Add("trace", &trace, "Trace.").OnlyWhen("flag", {"true"}).OnlyWhen("mode", {"fast", "exact"});
+    t->Add("truth", &truth, "Known answer.").Experimental();
+  }
+};
+
+TEST(OptionsTest, OptionTheModeIgnoresIsAnErrorNamingBothOptions) {
+  ModalOptions o;
+  OptionTable t = MakeOptionTable("demo", &o);
+  t.ApplyYaml(YAML::Load("mode: fast\norder: 3"), "cfg.yaml", "/");
+  try {
+    t.Validate("cfg.yaml");
+    FAIL() << "no error for an ignored option";
+  } catch (const UserError& e) {
+    const std::string what = e.what();
+    for (const char* needle :
+         {"cfg.yaml:2", "'demo.order' = 3 has no effect while demo.mode is 'fast'", "set demo.mode: exact"}) {
+      EXPECT_NE(what.find(needle), std::string::npos) << what;
+    }
+  }
+  // The mode that uses it, or the default value, passes.
+  t.ApplyText("mode", "exact", "--set demo.mode");
+  EXPECT_NO_THROW(t.Validate("cfg.yaml"));
+  ModalOptions defaults;
+  OptionTable u = MakeOptionTable("demo", &defaults);
+  u.ApplyYaml(YAML::Load("mode: fast\norder: 2\nflag: true\ntrace: 0.5"), "cfg.yaml", "/");
+  EXPECT_NO_THROW(u.Validate("cfg.yaml"));
+  u.ApplyText("flag", "false", "--set demo.flag");
+  EXPECT_THROW(u.Validate("cfg.yaml"), UserError);
+}
+
+TEST(OptionsTest, ReferenceListsPublicThenAdvancedAndLeavesOutExperimental) {
+  ModalOptions o;
+  OptionTable t = MakeOptionTable("demo", &o);
+  const std::string md = t.MarkdownReference();
+  const size_t advanced = md.find("#### demo — advanced");
+  ASSERT_NE(advanced, std::string::npos) << md;
+  EXPECT_LT(md.find("`demo.flag`"), advanced);
+  EXPECT_GT(md.find("`demo.order`"), advanced);
+  EXPECT_NE(md.find("only when mode: exact"), std::string::npos) << md;
+  EXPECT_NE(md.find("only when flag: true and mode: fast or exact"), std::string::npos) << md;
+  EXPECT_EQ(md.find("demo.truth"), std::string::npos) << md;
+  EXPECT_NE(t.MarkdownExperimentalRows().find("`demo.truth`"), std::string::npos);
+  EXPECT_TRUE(t.ExperimentalInUse().empty());
+  o.truth = true;
+  EXPECT_EQ(t.ExperimentalInUse(), std::vector<std::string>{"demo.truth"});
+}
+
 TEST(OptionsTest, CanonicalDoubleRoundTrips) {
   for (double v : {0.1, 1.0 / 3.0, 1e-300, 123456789.125, -2.5}) {
     EXPECT_EQ(std::strtod(CanonicalDouble(v).c_str(), nullptr), v);

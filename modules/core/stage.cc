@@ -152,6 +152,9 @@ int RunStageProgram(int argc, char** argv, const StageInfo& info, OptionTable* t
     for (const auto& s : sets) config.AddOverride(s);
     config.Apply(table);
     check();
+    for (const std::string& name : table->ExperimentalInUse()) {
+      RLOG_WARN("{} is a measurement switch (for tests and docs/RESULTS.md), not for production runs", name);
+    }
 
     // The resolved options, unless we were started from exactly that file.
     const std::string resolved = JoinPath(ctx.output_dir, "config.yaml");

@@ -38,22 +38,26 @@ struct EvaluateOptions {
         .Range(50, 100);
     t->Add("clip_to_peak", &clip_to_peak,
            "Clip reference and scaled estimate to [0, peak] before computing the error (a few highlights do not "
-           "dominate).");
+           "dominate).")
+        .Advanced();
     t->Add("mask_erosion_px", &mask_erosion_px,
            "Erode every comparison mask by this many pixels (object borders mix object and background).")
         .Range(0, 16);
     t->Add("min_confidence", &min_confidence,
            "Re-rendering masks keep photo pixels whose linearize confidence is at least this (clipped pixels have 0).")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("heatmap_max", &heatmap_max,
            "Error heat maps: this per-pixel error, as a fraction of the peak, is the top of the colour scale.")
-        .Range(1e-4, 10);
+        .Range(1e-4, 10)
+        .Advanced();
     t->Add("envmap_region", &envmap_region,
            "Where environment maps are compared: sphere, upper (above the ground truth's horizon), or auto (upper "
            "when the ground truth has occluders.ply, i.e. a ground that hides the lower hemisphere, else sphere).")
         .Choices({"auto", "sphere", "upper"});
     t->Add("mesh_samples", &mesh_samples, "Area-uniform surface samples per mesh for the Chamfer distance.")
-        .Range(100, 10000000);
+        .Range(100, 10000000)
+        .Advanced();
     t->Add("leave_one_out", &leave_one_out,
            "Leave-one-photo-out scores (a reflectance solve without each scored photo; docs/METRICS.md): auto (only "
            "when the ground truth knows no light: no relight references, lighting.json or lights.json), always, or "
@@ -62,11 +66,14 @@ struct EvaluateOptions {
     t->Add("loo_max_photos", &loo_max_photos,
            "Photos scored by leave-one-photo-out, evenly spread over the collection; 0: all. Each costs one short "
            "reflectance solve: raise it for a score over more of the collection.")
-        .Min(0);
+        .Min(0)
+        .OnlyWhen("leave_one_out", {"auto", "always"});
     t->Add("loo_max_iterations", &loo_max_iterations,
            "Outer iterations of each leave-one-out solve started from its group's reflectance (solved without the "
            "group's photos); 0: inverse.max_iterations. Raise it when the folds' iterations still lower the error.")
-        .Min(0);
+        .Min(0)
+        .Advanced()
+        .OnlyWhen("leave_one_out", {"auto", "always"});
     t->Retired("loo_light_samples",
                "leave-one-out renders use the relight stage's renderer and samples (relight.renderer); delete the key");
     t->Retired("loo_brdf_samples",

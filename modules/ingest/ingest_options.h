@@ -45,12 +45,14 @@ struct IngestOptions {
         .InputDir()
         .Reads([this] { return PhotoFileSelection(recursive); });
     t->Add("format", &format,
-           "What ingest.images holds: photos (any folder of photos), or diligent (a DiLiGenT object folder: the "
-           "photos, known lights and mask become a scene with ground truth, docs/RESULTS.md).")
+           "What ingest.images holds: photos (any folder of photos), or diligent (a DiLiGenT object "
+           "folder: the photos, known lights and mask become a scene with ground truth).")
         .Choices({"photos", "diligent"});
     t->Add("diligent_sphere_subdivisions", &diligent_sphere_subdivisions,
            "format = diligent: subdivision levels of the icosphere fitted to the ball (5: 10242 vertices).")
-        .Range(2, 8);
+        .Range(2, 8)
+        .Advanced()
+        .OnlyWhen("format", {"diligent"});
     t->Add("ground_truth", &ground_truth,
            "Optional ground-truth folder (docs/FORMATS.md) copied along for the evaluate stage.")
         .InputDir();
@@ -59,28 +61,33 @@ struct IngestOptions {
            "Longest image side in pixels after downscaling; 0 keeps the original size.")
         .Min(0);
     t->Add("min_photos", &min_photos, "Fewer usable photos than this is an error.").Min(1);
-    t->Add("jpeg_quality", &jpeg_quality, "JPEG quality of re-encoded 8-bit photos.").Range(50, 100);
+    t->Add("jpeg_quality", &jpeg_quality, "JPEG quality of re-encoded 8-bit photos.").Range(50, 100).Advanced();
     t->Add("drop_grayscale", &drop_grayscale, "Drop black-and-white photos (they carry no colour of the light).");
     t->Add("grayscale_chroma", &grayscale_chroma,
            "Mean chroma (max-min of encoded RGB) below which a photo counts as black-and-white.")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("drop_duplicates", &drop_duplicates, "Drop exact and near-duplicate photos (keeps the first by name).");
     t->Add("duplicate_correlation", &duplicate_correlation,
            "Thumbnail correlation above which two photos count as near-duplicates.")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("max_megapixels", &max_megapixels,
            "Photos whose header claims more pixels than this (in millions) are skipped before decoding, with a "
            "reason: a damaged or hostile header cannot exhaust memory. Decoding takes about 12 bytes per pixel; "
            "raise it for gigapixel panoramas on a machine with the memory.")
-        .Min(1);
+        .Min(1)
+        .Advanced();
     t->Add("min_image_side", &min_image_side,
            "Photos whose shorter side, after downscaling to max_image_size, is below this many pixels are skipped "
            "(SIFT finds next to no features in them). Lower it only for tiny test images.")
-        .Min(1);
+        .Min(1)
+        .Advanced();
     t->Add("max_aspect_ratio", &max_aspect_ratio,
            "Photos whose longer side exceeds this multiple of the shorter one (strips, banners, broken headers) "
            "are skipped; raise it to keep wide panoramas, which COLMAP's pinhole cameras model poorly anyway.")
-        .Min(1);
+        .Min(1)
+        .Advanced();
   }
   void Check() const {}
 };

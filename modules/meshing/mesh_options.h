@@ -39,11 +39,12 @@ struct MeshOptions {
            "mvs: the dense reconstruction (<mvs>/meshed.ply); file: mesh.file; ground_truth: "
            "<ingest>/ground_truth/mesh.ply (+ occluders.ply), passed through.")
         .Choices({"mvs", "file", "ground_truth"});
-    t->Add("file", &file, "Mesh file (PLY/OBJ/OFF) for mesh.source=file.").InputFile();
+    t->Add("file", &file, "Mesh file (PLY/OBJ/OFF) for mesh.source=file.").InputFile().OnlyWhen("source", {"file"});
     t->Add("file_frame", &file_frame,
            "Frame of mesh.file: world (the sfm stage's output frame) or colmap (COLMAP's frame before the "
            "sfm stage's up rotation; sfm_summary.json world_from_colmap is applied).")
-        .Choices({"world", "colmap"});
+        .Choices({"world", "colmap"})
+        .OnlyWhen("source", {"file"});
     t->Add("target_vertices", &target_vertices,
            "Vertex budget of the output mesh (the inverse rendering works per vertex; 30K-100K is typical; "
            "more costs visibility and solve time); 0 keeps the input resolution.")
@@ -58,35 +59,47 @@ struct MeshOptions {
         .Min(1);
     t->Add("min_component_fraction", &min_component_fraction,
            "Drop kept components scoring less than this fraction of the best one (fused points near it, else area).")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("max_hole_edges", &max_hole_edges, "Fill holes bounded by at most this many edges (0: fill none).").Min(0);
     t->Add("max_hole_fraction", &max_hole_fraction,
            "Fill only holes no wider than this fraction of the mesh's bounding-box diagonal.")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("auto_crop", &auto_crop,
            "Crop to the region seen by the registered cameras: the robust box of the sparse points, and faces "
            "in front of at least mesh.crop_min_views cameras.");
     t->Add("crop_percentile", &crop_percentile, "Robust box: per-axis percentiles [p, 100-p] of the sparse points.")
-        .Range(0, 49);
-    t->Add("crop_margin", &crop_margin, "Robust box grown on each side by this fraction of its largest side.").Min(0);
-    t->Add("crop_min_views", &crop_min_views, "A kept face lies inside at least this many camera frusta.").Min(0);
+        .Range(0, 49)
+        .Advanced()
+        .OnlyWhen("auto_crop", {"true"});
+    t->Add("crop_margin", &crop_margin, "Robust box grown on each side by this fraction of its largest side.")
+        .Min(0)
+        .Advanced()
+        .OnlyWhen("auto_crop", {"true"});
+    t->Add("crop_min_views", &crop_min_views, "A kept face lies inside at least this many camera frusta.")
+        .Min(0)
+        .Advanced()
+        .OnlyWhen("auto_crop", {"true"});
     t->Add("max_point_distance", &max_point_distance,
            "Auto crop: drop faces farther than this fraction of the point cloud's bounding-box diagonal from every "
            "point of <mvs>/fused.ply (else the sparse points): a Poisson surface's closing bubble away from the "
            "data; 0 disables.")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced()
+        .OnlyWhen("auto_crop", {"true"});
     t->Add("crop_box", &crop_box, "Optional world-frame box [xmin, ymin, zmin, xmax, ymax, zmax]; faces outside go.");
     t->Add("clean_ground_truth", &clean_ground_truth,
-           "Clean and resample the ground-truth mesh too (default: pass it through unchanged).");
-    t->Add("remesh_iterations", &remesh_iterations, "Isotropic remeshing iterations per pass.").Range(1, 20);
+           "Clean and resample the ground-truth mesh too (default: pass it through unchanged).")
+        .Advanced();
+    t->Add("remesh_iterations", &remesh_iterations, "Isotropic remeshing iterations per pass.")
+        .Range(1, 20)
+        .Advanced()
+        .OnlyWhen("resample", {"remesh"});
   }
   void Check() const {
     if (source == "file" && file.empty()) {
       RELIGHT_USER_ERROR() << "mesh.source is 'file' but mesh.file is empty: set mesh.file to a PLY/OBJ/OFF mesh";
-    }
-    if (source != "file" && !file.empty()) {
-      RELIGHT_USER_ERROR() << "mesh.file is set but mesh.source is '" << source
-                           << "': set mesh.source: file or remove mesh.file";
     }
     if (!crop_box.empty()) {
       if (crop_box.size() != 6) {

@@ -26,9 +26,7 @@ struct MvsOptions {
   int min_shared_points = 5;                  // A source view needs at least this many (weighted) shared points.
   // --- matching cost (bilateral-weighted NCC, Schönberger et al. 2016 §4.1)
   // The window is smaller than COLMAP's (radius 5, σ 5): near silhouettes, depth edges and on curved or
-  // slanted surfaces a wide window moves the cost minimum off the true depth (docs/RESULTS.md@15cf301, "Multi-view
-  // stereo"); 7 × 7 samples with σ = 2 px were the best of the sizes tried on both synthetic scenes there.
-  // (Its one failed chain run was the mesh stage's crop box, fixed since; RESULTS@15cf301, "Default window".)
+  // slanted surfaces a wide window moves the cost minimum off the true depth (docs/TUNING.md).
   int window_radius = 3;        // Half size of the matching window in pixels.
   int window_step = 1;          // Sample every `window_step`-th pixel of the window (1: 49 samples for radius 3).
   double sigma_color = 0.2;     // Bilateral weight: grey-level scale (images in [0, 1]).
@@ -74,78 +72,108 @@ struct MvsOptions {
         .Range(1, 64);
     t->Add("min_triangulation_angle_deg", &min_triangulation_angle_deg,
            "Sparse points shared with a candidate source view count only when seen under at least this angle.")
-        .Range(0, 60);
+        .Range(0, 60)
+        .Advanced();
     t->Add("min_shared_points", &min_shared_points,
            "A source view must share at least this many such sparse points with the reference image, each "
            "weighted by (1 + cos of its triangulation angle) / 2 (1 for close views, 0.5 at 90 deg, 0.1 at 143 deg).")
-        .Min(1);
+        .Min(1)
+        .Advanced();
     t->Add("window_radius", &window_radius, "Half size of the NCC window in pixels (larger: smoother, slower).")
         .Range(1, 16);
     t->Add("window_step", &window_step, "Sample every n-th pixel of the window (2 halves the samples per axis).")
-        .Range(1, 4);
+        .Range(1, 4)
+        .Advanced();
     t->Add("sigma_color", &sigma_color, "Bilateral weight of the NCC window: grey-level scale (images in [0, 1]).")
-        .Min(1e-3);
-    t->Add("sigma_spatial", &sigma_spatial, "Bilateral weight of the NCC window: spatial scale in pixels.").Min(0.1);
+        .Min(1e-3)
+        .Advanced();
+    t->Add("sigma_spatial", &sigma_spatial, "Bilateral weight of the NCC window: spatial scale in pixels.")
+        .Min(0.1)
+        .Advanced();
     t->Add("num_best_views", &num_best_views,
            "A hypothesis' cost is the mean of its best this-many source views (robust to occlusion).")
-        .Range(1, 64);
+        .Range(1, 64)
+        .Advanced();
     t->Add("num_iterations", &num_iterations, "PatchMatch iterations of the photometric pass.").Range(1, 20);
     t->Add("geom_consistency", &geom_consistency,
            "Run a second pass that adds the forward-backward reprojection error against the other depth maps.");
     t->Add("geom_iterations", &geom_iterations,
-           "PatchMatch iterations of the geometric pass; each matches against the sources' depth maps of the one "
-           "before, so views that disagree converge over iterations. Each costs about a third of the photometric "
-           "pass; raise it when lighting or weak texture leaves the photometric maps noisy.")
-        .Range(1, 20);
+           "PatchMatch iterations of the geometric pass, each against the other views' maps of the one "
+           "before. Each costs about a third of the photometric pass; raise it when changing light or "
+           "weak texture leaves the depth maps noisy.")
+        .Range(1, 20)
+        .OnlyWhen("geom_consistency", {"true"});
     t->Add("geom_regularizer", &geom_regularizer,
            "Weight of the reprojection error (pixels) against 1 - NCC in the geometric pass; higher trusts the "
            "other views' depths more than the photometric match.")
-        .Min(0);
-    t->Add("geom_max_cost_px", &geom_max_cost_px, "Reprojection errors are truncated at this many pixels.").Min(0.1);
+        .Min(0)
+        .Advanced()
+        .OnlyWhen("geom_consistency", {"true"});
+    t->Add("geom_max_cost_px", &geom_max_cost_px, "Reprojection errors are truncated at this many pixels.")
+        .Min(0.1)
+        .Advanced()
+        .OnlyWhen("geom_consistency", {"true"});
     t->Add("depth_margin", &depth_margin,
            "The depth search range is the 1st..99th percentile of the sparse depths widened by this fraction.")
-        .Range(0, 4);
-    t->Add("seed", &seed, "Random seed of the PatchMatch sampling (results do not depend on threads).").Min(0);
+        .Range(0, 4)
+        .Advanced();
+    t->Add("seed", &seed, "Random seed of the PatchMatch sampling (results do not depend on threads).")
+        .Min(0)
+        .Advanced();
     t->Add("filter_min_ncc", &filter_min_ncc, "A source view supports a pixel when its NCC is at least this.")
-        .Range(-1, 1);
+        .Range(-1, 1)
+        .Advanced();
     t->Add("filter_geom_max_error_px", &filter_geom_max_error_px,
            "... and (geometric pass) its forward-backward reprojection error is at most this many pixels.")
-        .Min(0);
+        .Min(0)
+        .Advanced()
+        .OnlyWhen("geom_consistency", {"true"});
     t->Add("filter_min_triangulation_angle_deg", &filter_min_triangulation_angle_deg,
            "... and it sees the point under at least this triangulation angle.")
-        .Range(0, 60);
+        .Range(0, 60)
+        .Advanced();
     t->Add("filter_min_num_consistent", &filter_min_num_consistent,
            "Depth-map pixels supported by fewer source views are removed.")
-        .Min(1);
+        .Min(1)
+        .Advanced();
     t->Add("filter_min_segment_px", &filter_min_segment_px,
            "Connected depth-map segments (4-neighbours within 2% in depth) smaller than this are removed; 0 disables.")
-        .Min(0);
+        .Min(0)
+        .Advanced();
     t->Add("fusion_min_num_pixels", &fusion_min_num_pixels,
            "colmap stereo_fusion: pixels that must agree on a fused point.")
-        .Min(1);
+        .Min(1)
+        .Advanced();
     t->Add("fusion_max_reproj_error_px", &fusion_max_reproj_error_px,
            "colmap stereo_fusion: reprojection error in pixels for a pixel to join a point.")
-        .Min(0);
+        .Min(0)
+        .Advanced();
     t->Add("fusion_max_depth_error", &fusion_max_depth_error,
            "colmap stereo_fusion: relative depth error for a pixel to join a point.")
-        .Min(0);
+        .Min(0)
+        .Advanced();
     t->Add("fusion_max_normal_error_deg", &fusion_max_normal_error_deg,
            "colmap stereo_fusion: normal angle in degrees for a pixel to join a point.")
-        .Range(0, 180);
+        .Range(0, 180)
+        .Advanced();
     t->Add("mesher", &mesher,
-           "colmap_poisson: COLMAP's screened Poisson (fast, fine); cgal_poisson: CGAL's Poisson with Delaunay "
-           "refinement (coarser at CGAL's default triangle sizes; see docs/BENCHMARKS.md); none: stop after fusion.")
+           "colmap_poisson: COLMAP's screened Poisson (fast, fine); cgal_poisson: CGAL's Poisson with "
+           "Delaunay refinement (coarser at CGAL's default triangle sizes); none: stop after fusion.")
         .Choices({"colmap_poisson", "cgal_poisson", "none"});
     t->Add("poisson_depth", &poisson_depth, "colmap_poisson: octree depth (more: finer detail, more noise, slower).")
-        .Range(5, 14);
+        .Range(5, 14)
+        .OnlyWhen("mesher", {"colmap_poisson"});
     t->Add("poisson_trim", &poisson_trim,
            "colmap_poisson: remove surface of sample density below this (0 keeps the closed surface; COLMAP uses 10).")
-        .Range(0, 20);
+        .Range(0, 20)
+        .Advanced()
+        .OnlyWhen("mesher", {"colmap_poisson"});
     t->Add("close_holes", &close_holes,
            "Triangulate every boundary loop of the mesh (where COLMAP's Poisson surface is clipped by its bounding "
            "box at unobserved sides), so the mesh is closed.");
     t->Add("write_preview", &write_preview, "Render the mesh from the first camera into meshed_preview.png.")
-        .NotInKey();
+        .NotInKey()
+        .Advanced();
   }
   void Check() const {
     if (window_step > window_radius) {

@@ -36,43 +36,43 @@ struct ObserveOptions {
         .Range(0, 89);
     t->Add("depth_tolerance", &depth_tolerance,
            "Relative difference between a vertex's depth and the depth map up to which it counts as visible.")
-        .Range(1e-4, 0.2);
+        .Range(1e-4, 0.2)
+        .Advanced();
     t->Add("edge_margin_px", &edge_margin_px,
            "Confidence rises from 0 at silhouettes and depth edges to 1 at this distance (pixels).")
-        .Range(0, 50);
+        .Range(0, 50)
+        .Advanced();
     t->Add("depth_edge_jump", &depth_edge_jump,
            "Relative depth jump between neighbouring pixels that marks a depth edge.")
-        .Range(1e-3, 1);
+        .Range(1e-3, 1)
+        .Advanced();
     t->Add("min_confidence", &min_confidence, "Observations with lower confidence are dropped.").Range(0, 1);
     t->Add("footprint_scale", &footprint_scale,
            "Colour sampling radius relative to the vertex's projected radius (its share of the surface).")
         .Range(0.25, 4);
     t->Add("border_margin_px", &border_margin_px, "Projections closer than this to the image border are dropped.")
-        .Range(0, 100);
+        .Range(0, 100)
+        .Advanced();
     t->Add("max_distrusted_share", &max_distrusted_share,
-           "A footprint holding a larger share of distrusted pixels (linearize: over-exposed, black-clipped or next "
-           "to a clipped pixel) gives no ordinary observation: the mean of its remaining pixels would be biased, "
-           "since the distrusted ones are the brightest (highlights) or the darkest, not a random share. What it "
-           "gives instead is set by clipped_footprints. Observations under the share have their confidence lowered "
-           "by it. 0 treats every footprint that touches a clipped pixel so; 1 averages the trusted pixels of all "
-           "(observe stage version 2). docs/RESULTS.md@15cf301 measures both ends. With "
-           "clipped_footprints = lower_bound and "
-           "bound_channels = clipped, a footprint holding any over-exposed pixel is a lower bound in the channels "
-           "that clipped whatever this share (observe stage version 7): the share then governs only the pixels "
-           "distrusted for other reasons (black-clipped, next to a clipped pixel).")
+           "A footprint with a larger share of distrusted pixels (linearize: clipped or next to a "
+           "clipped pixel) gives no ordinary mean, which would be biased, but what clipped_footprints "
+           "says; below it, confidence drops by the share. Lower it when many highlights clip "
+           "(docs/TUNING.md).")
         .Range(0, 1);
     t->Add("clipped_footprints", &clipped_footprints,
-           "What a footprint over max_distrusted_share gives. lower_bound: the mean over all its pixels, clipped "
-           "ones at their clipped value, flagged as a lower bound of the true radiance; the inverse stage enforces "
-           "it only while its prediction falls below (a censored residual), so clipped highlights still say that "
-           "the surface is at least this bright there. drop: nothing (observe stage version 3).")
-        .Choices({"lower_bound", "drop"});
+           "What a footprint over max_distrusted_share gives. lower_bound: the mean over all its pixels, "
+           "flagged as a lower bound of the true radiance, which the inverse stage enforces only while "
+           "its prediction falls below, so clipped highlights still say the surface is at least this "
+           "bright; drop: nothing (the earlier behaviour, kept to compare against).")
+        .Choices({"lower_bound", "drop"})
+        .Experimental();
     t->Add("bound_channels", &bound_channels,
-           "Which channels of a lower bound are bounds. clipped: only those with an over-exposed pixel in the "
-           "footprint (linearize stats overexposed_linear); the others are ordinary measurements of the same mean "
-           "(observe stage version 5). all: every channel, since a pixel is distrusted when one channel clips "
-           "(version 4). docs/RESULTS.md@15cf301 measures both.")
-        .Choices({"clipped", "all"});
+           "Which channels of a lower bound are bounds. clipped: only those with an over-exposed pixel "
+           "in the footprint; the others are ordinary measurements of the same mean. all: every channel "
+           "(the earlier behaviour, kept to compare against).")
+        .Choices({"clipped", "all"})
+        .Experimental()
+        .OnlyWhen("clipped_footprints", {"lower_bound"});
   }
   void Check() const {
     if (grazing_full_deg >= grazing_min_deg) {

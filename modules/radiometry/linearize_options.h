@@ -26,7 +26,9 @@ struct LinearizeOptions {
            "Transfer curve of 8/16-bit photos: srgb (Internet photos), gamma (pure power law), linear (raw data). "
            "Float inputs (EXR/HDR) are always linear.")
         .Choices({"srgb", "gamma", "linear"});
-    t->Add("gamma", &gamma, "Exponent of the power law when transfer = gamma.").Range(1.0, 4.0);
+    t->Add("gamma", &gamma, "Exponent of the power law when transfer = gamma.")
+        .Range(1.0, 4.0)
+        .OnlyWhen("transfer", {"gamma"});
     t->Add("saturation_level", &saturation_level,
            "Encoded value (0..1) at or above which a channel counts as over-exposed; such pixels get confidence 0.")
         .Range(0.5, 1.0);
@@ -35,13 +37,14 @@ struct LinearizeOptions {
            "linearize.black_confidence.")
         .Range(0.0, 0.2);
     t->Add("black_confidence", &black_confidence,
-           "Confidence of black-clipped pixels. 0 distrusts them like over-exposed ones (Internet photos: crushed "
-           "shadows hide their true value); 1 keeps them as measurements of 'no light' (linear raw data, where an "
-           "attached shadow is real darkness and its error is at most black_level).")
+           "Confidence of black-clipped pixels. 0 distrusts them like over-exposed ones (Internet "
+           "photos: crushed shadows hide their value); 1 keeps them as measurements of 'no light' "
+           "(linear raw data, where an attached shadow is real darkness).")
         .Range(0.0, 1.0);
     t->Add("clip_dilation_px", &clip_dilation_px,
            "Pixels within this distance of a clipped pixel also get confidence 0 (blooming, JPEG ringing).")
-        .Range(0, 16);
+        .Range(0, 16)
+        .Advanced();
     t->Add("normalize_exposure", &normalize_exposure,
            "Scale photos to a common exposure (EXIF exposure time, f-number, ISO) when every photo has them.");
   }

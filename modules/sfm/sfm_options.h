@@ -47,33 +47,50 @@ struct SfmOptions {
            "model: use the COLMAP model folder given by sfm.model.")
         .Choices({"colmap", "ground_truth", "model"});
     t->Add("model", &model, "COLMAP model folder (cameras/images/points3D as .bin or .txt) for sfm.mode=model.")
-        .InputDir();
+        .InputDir()
+        .OnlyWhen("mode", {"model"});
     t->Add("camera_model", &camera_model,
            "COLMAP camera model; SIMPLE_RADIAL is the most stable for few photos, OPENCV fits wide lenses.")
-        .Choices({"SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV"});
+        .Choices({"SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV"})
+        .OnlyWhen("mode", {"colmap"});
     t->Add("shared_intrinsics", &shared_intrinsics,
            "single: one camera for all photos (same camera and size: more stable); per_image: one each "
            "(Internet photos); auto: single when all photos share size and EXIF camera.")
-        .Choices({"auto", "single", "per_image"});
-    t->Add("use_exif_focal", &use_exif_focal, "Initialise the focal length from EXIF (ingest's focal_px) as a prior.");
+        .Choices({"auto", "single", "per_image"})
+        .OnlyWhen("mode", {"colmap"});
+    t->Add("use_exif_focal", &use_exif_focal, "Initialise the focal length from EXIF (ingest's focal_px) as a prior.")
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"});
     t->Add("matcher", &matcher,
-           "auto: exhaustive up to sfm.exhaustive_max_photos, else vocab_tree when sfm.vocab_tree is set, else "
-           "retrieval; retrieval: each photo matched with its most similar ones, found with a vocabulary built "
-           "from the collection's own features (no file needed); sequential suits video frames; spatial needs "
-           "GPS in EXIF; vocab_tree: COLMAP's matcher with a downloaded tree.")
-        .Choices({"auto", "exhaustive", "retrieval", "sequential", "spatial", "vocab_tree"});
+           "Which photo pairs are matched. auto: exhaustive up to exhaustive_max_photos, else vocab_tree "
+           "when vocab_tree is set, else retrieval (each photo with its most similar ones); sequential: "
+           "video frames; spatial: GPS in EXIF.")
+        .Choices({"auto", "exhaustive", "retrieval", "sequential", "spatial", "vocab_tree"})
+        .OnlyWhen("mode", {"colmap"});
     t->Add("exhaustive_max_photos", &exhaustive_max_photos,
            "auto matcher: exhaustive matching (cost grows with the square of the photos) up to this many photos.")
-        .Min(3);
+        .Min(3)
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"})
+        .OnlyWhen("matcher", {"auto"});
     t->Add("retrieval_neighbors", &retrieval_neighbors,
            "retrieval matcher: the most similar photos each photo is matched with; a photo left with fewer "
            "verified partners than the median photo is matched with more (its partners' partners, then its next "
            "most similar), while that finds it partners, up to 4 times as many. Raise it when photos of a large "
            "collection stay unregistered; matching time grows with it.")
-        .Min(2);
+        .Min(2)
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"})
+        .OnlyWhen("matcher", {"auto", "retrieval"});
     t->Add("vocab_tree", &vocab_tree, "Vocabulary-tree file for vocab_tree matching (COLMAP's download page).")
-        .InputFile();
-    t->Add("sequential_overlap", &sequential_overlap, "Sequential matcher: neighbours matched per photo.").Min(1);
+        .InputFile()
+        .OnlyWhen("mode", {"colmap"})
+        .OnlyWhen("matcher", {"auto", "vocab_tree"});
+    t->Add("sequential_overlap", &sequential_overlap, "Sequential matcher: neighbours matched per photo.")
+        .Min(1)
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"})
+        .OnlyWhen("matcher", {"sequential"});
     t->Add("max_image_size", &max_image_size,
            "Longest side in pixels SIFT works on; larger costs memory and time, smaller loses features.")
         .Min(100);
@@ -81,58 +98,71 @@ struct SfmOptions {
            "Grey SIFT features per photo; SIFT features of the photo's colour (log-chromaticity), which survive "
            "changes of light, are added, at most as many. Fewer match faster, more register weakly "
            "textured photos.")
-        .Min(100);
-    t->Add("min_model_size", &min_model_size, "Smallest reconstruction (photos) COLMAP keeps.").Min(2);
+        .Min(100)
+        .Advanced();
+    t->Add("min_model_size", &min_model_size, "Smallest reconstruction (photos) COLMAP keeps.")
+        .Min(2)
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"});
     t->Add("abs_pose_min_num_inliers", &abs_pose_min_num_inliers,
            "Inlier matches needed to register a photo; lower registers weakly linked photos, at some risk.")
-        .Min(6);
+        .Min(6)
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"});
     t->Add("abs_pose_min_inlier_ratio", &abs_pose_min_inlier_ratio, "Inlier ratio needed to register a photo.")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"});
     t->Add("refine_intrinsics", &refine_intrinsics,
            "mapping: refine focal length and distortion during incremental mapping (COLMAP's default; needed "
            "without EXIF); final: keep the EXIF focal fixed while mapping (robust on scenes dominated by a "
            "plane), then refine in one final bundle adjustment; never: keep them; auto: final when every photo "
            "has an EXIF focal length, else mapping.")
-        .Choices({"auto", "mapping", "final", "never"});
+        .Choices({"auto", "mapping", "final", "never"})
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"});
     t->Add("refine_principal_point", &refine_principal_point,
            "Refine the principal point in a final bundle adjustment (mapping keeps it at the image centre, where "
            "it is unstable): auto refines it when one camera is shared by at least 10 registered photos, which "
            "constrain it; never keeps the image centre; always refines every camera's (risky with per-photo "
            "cameras and few photos).")
-        .Choices({"auto", "never", "always"});
+        .Choices({"auto", "never", "always"})
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"});
     t->Add("min_registered", &min_registered, "Fewer registered photos than this is an error.").Min(2);
     t->Add("allow_partial", &allow_partial,
-           "Go on with the largest model when fewer than half of the photos with features register, when they "
-           "split into separate reconstructions, or when independent mapper runs disagree; by default the stage "
-           "stops and says which photos failed and why. Set it to relight what did register.");
+           "Go on with the largest model when fewer than half of the photos register, when they split "
+           "into separate models, or when mapper runs disagree; by default the stage stops and says "
+           "which photos failed and why.");
     t->Add("mapper", &mapper,
-           "incremental: COLMAP's mapper, one model grown photo by photo (its time grows with about the 2.5th "
-           "power of the photos); hierarchical: COLMAP's hierarchical mapper, which splits the photos into "
-           "clusters (up to 40 photos, plus 10 shared with each neighbouring cluster), maps them in parallel and "
-           "merges them, registers the photos of clusters it could not merge to the merged model and adjusts it "
-           "as a whole (time grows with the photos); auto: hierarchical from 300 photos, above which the "
-           "incremental mapper's time dominates the stage.")
-        .Choices({"auto", "incremental", "hierarchical"});
+           "incremental: COLMAP's mapper, one model grown photo by photo (time about photos^2.5); "
+           "hierarchical: clusters mapped in parallel and merged (faster on large collections, cameras "
+           "less accurate); auto: hierarchical from 300 photos.")
+        .Choices({"auto", "incremental", "hierarchical"})
+        .OnlyWhen("mode", {"colmap"});
     t->Add("max_mapper_runs", &max_mapper_runs,
            "Incremental mapping is repeated from different first pairs until two runs place the cameras the same "
            "way (a wrong reconstruction can look normal); at most this many runs. 1 skips the check (saves time "
            "on large collections).")
-        .Range(1, 16);
+        .Range(1, 16)
+        .Advanced()
+        .OnlyWhen("mode", {"colmap"});
     t->Add("align_up", &align_up,
-           "Rotate the COLMAP frame so the mean camera up (-y of the images) is +Z (colmap and model modes).");
+           "Rotate the COLMAP frame so the mean camera up (-y of the images) is +Z (colmap and model modes).")
+        .Advanced()
+        .OnlyWhen("mode", {"colmap", "model"});
     t->Add("undistort_max_image_size", &undistort_max_image_size,
            "Longest side of the undistorted dense/ images in pixels; 0 keeps the ingested size.")
-        .Min(0);
-    t->Add("seed", &seed, "COLMAP's random seed.").Min(0);
-    t->Add("keep_database", &keep_database, "Keep colmap/database.db (features and matches) for debugging.").NotInKey();
+        .Min(0)
+        .Advanced();
+    t->Add("seed", &seed, "COLMAP's random seed.").Min(0).Advanced().OnlyWhen("mode", {"colmap"});
+    t->Add("keep_database", &keep_database, "Keep colmap/database.db (features and matches) for debugging.")
+        .NotInKey()
+        .Advanced();
   }
   void Check() const {
     if (mode == "model" && model.empty()) {
       RELIGHT_USER_ERROR() << "sfm.mode is 'model' but sfm.model is empty: set it to a COLMAP model folder";
-    }
-    if (mode != "model" && !model.empty()) {
-      RELIGHT_USER_ERROR() << "sfm.model is set but sfm.mode is '" << mode
-                           << "': set sfm.mode: model or remove sfm.model";
     }
     if (matcher == "vocab_tree" && vocab_tree.empty()) {
       RELIGHT_USER_ERROR() << "sfm.matcher is vocab_tree but sfm.vocab_tree is empty: set it to a vocabulary-tree file";

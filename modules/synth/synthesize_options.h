@@ -109,132 +109,198 @@ struct SynthesizeOptions {
   void Declare(OptionTable* t) {
     t->Add("shape", &shape, "Built-in object (ignored when mesh is set).").Choices({"sphere", "torus_knot", "blob"});
     t->Add("mesh", &mesh, "Object mesh file (OBJ/PLY/OFF); empty: the built-in shape.").InputFile();
-    t->Add("mesh_up", &mesh_up, "Axis of the mesh file that points up.").Choices({"+x", "-x", "+y", "-y", "+z", "-z"});
-    t->Add("object_yaw_deg", &object_yaw_deg, "Rotation of the object about +Z after uprighting [deg].");
-    t->Add("object_size", &object_size, "Largest bounding-box side of the object [scene units].").Min(1e-6);
+    t->Add("mesh_up", &mesh_up, "Axis of the mesh file that points up.")
+        .Choices({"+x", "-x", "+y", "-y", "+z", "-z"})
+        .Advanced();
+    t->Add("object_yaw_deg", &object_yaw_deg, "Rotation of the object about +Z after uprighting [deg].").Advanced();
+    t->Add("object_size", &object_size, "Largest bounding-box side of the object [scene units].").Min(1e-6).Advanced();
     t->Add("object_vertices", &object_vertices,
            "Built-in shapes get about this many vertices; mesh files are subdivided up to it (never decimated).")
-        .Range(100, 5000000);
+        .Range(100, 5000000)
+        .Advanced();
     t->Add("object_max_vertices", &object_max_vertices,
            "Mesh files with more vertices are remeshed down to about this many (CGAL isotropic remeshing; fewer "
            "vertices cover more pixels each, so observations are less noisy); 0: never simplified.")
-        .Range(0, 5000000);
+        .Range(0, 5000000)
+        .Advanced();
     t->Add("materials", &materials, "materials.json (docs/FORMATS.md) of the object; empty: the built-in set.")
         .InputFile();
     t->Add("num_materials", &num_materials, "Built-in materials used: terracotta, blue glaze, ivory, brass.")
-        .Range(1, 4);
-    t->Add("pattern", &pattern, "Per-vertex material weight pattern.").Choices({"noise", "voronoi", "single"});
-    t->Add("pattern_frequency", &pattern_frequency, "Pattern cycles per object size (coarsest octave).").Min(1e-3);
-    t->Add("pattern_octaves", &pattern_octaves, "Fractal octaves of the noise pattern.").Range(1, 10);
+        .Range(1, 4)
+        .Advanced();
+    t->Add("pattern", &pattern, "Per-vertex material weight pattern.")
+        .Choices({"noise", "voronoi", "single"})
+        .Advanced();
+    t->Add("pattern_frequency", &pattern_frequency, "Pattern cycles per object size (coarsest octave).")
+        .Min(1e-3)
+        .Advanced();
+    t->Add("pattern_octaves", &pattern_octaves, "Fractal octaves of the noise pattern.").Range(1, 10).Advanced();
     t->Add("pattern_sharpness", &pattern_sharpness, "Softmax gain of the weights (crisper borders when larger).")
-        .Min(0);
+        .Min(0)
+        .Advanced();
     t->Add("ground", &ground, "Add the textured ground plane z = 0 (casts and receives shadows).");
     t->Add("ground_shape", &ground_shape,
            "square: a square of side ground_size; disk: a round ground of diameter ground_size (no corners "
            "in view).")
-        .Choices({"square", "disk"});
-    t->Add("ground_size", &ground_size, "Side (square) or diameter (disk) of the ground [object sizes].").Min(1);
+        .Choices({"square", "disk"})
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
+    t->Add("ground_size", &ground_size, "Side (square) or diameter (disk) of the ground [object sizes].")
+        .Min(1)
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("ground_cells", &ground_cells,
            "Grid cells per side of the ground (disk: ground_cells / 2 rings); its texture lives on vertices.")
-        .Range(1, 4096);
-    t->Add("ground_pattern_frequency", &ground_pattern_frequency, "Ground pattern cycles per object size.").Min(1e-3);
+        .Range(1, 4096)
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
+    t->Add("ground_pattern_frequency", &ground_pattern_frequency, "Ground pattern cycles per object size.")
+        .Min(1e-3)
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("ground_pattern", &ground_pattern,
            "Ground texture: mosaic (a random colour per cell with fractal detail, over three primary materials: "
            "distinctive features for structure from motion), noise (the stone materials' fractal pattern) or plain "
            "(the first ground material everywhere: no features but the shadows).")
-        .Choices({"mosaic", "noise", "plain"});
+        .Choices({"mosaic", "noise", "plain"})
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("ground_materials", &ground_materials,
            "materials.json of the ground and blockers; empty: built-in pale stone, dark stone, sand (Lambertian).")
-        .InputFile();
+        .InputFile()
+        .Advanced()
+        .OnlyWhen("ground", {"true"});
     t->Add("num_blockers", &num_blockers, "Boxes standing beside the object that cast shadows on it.").Range(0, 16);
-    t->Add("blocker_height", &blocker_height, "Height of a blocker [object sizes].").Min(1e-3);
-    t->Add("blocker_width", &blocker_width, "Side of a blocker's square footprint [object sizes].").Range(1e-3, 10);
+    t->Add("blocker_height", &blocker_height, "Height of a blocker [object sizes].").Min(1e-3).Advanced();
+    t->Add("blocker_width", &blocker_width, "Side of a blocker's square footprint [object sizes].")
+        .Range(1e-3, 10)
+        .Advanced();
     t->Add("blocker_distance", &blocker_distance, "Distance of a blocker from the object's axis [object sizes].")
-        .Min(0.5);
+        .Min(0.5)
+        .Advanced();
     t->Add("envmaps", &envmaps, "Lat-long HDR/EXR environment maps of the photos; empty: procedural sky only.")
         .InputFile();
     t->Add("sky_fraction", &sky_fraction,
            "Fraction of lighting conditions from the sun-and-sky model (all of them when envmaps is empty).")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("num_lightings", &num_lightings,
            "Distinct lighting conditions, assigned to the photos in turn; 0: one per photo.")
         .Min(0);
     t->Add("lighting_order", &lighting_order,
            "With fewer lightings than photos: interleaved (photo p gets lighting p mod L, neighbours differ) or "
            "blocks (runs of neighbouring views share one lighting, so structure from motion can chain them).")
-        .Choices({"interleaved", "blocks"});
+        .Choices({"interleaved", "blocks"})
+        .Advanced();
     t->Add("env_rotation_deg", &env_rotation_deg, "Env-map rotation about +Z, uniform in [0, this) [deg].")
-        .Range(0, 360);
+        .Range(0, 360)
+        .Advanced();
     t->Add("intensity_min", &intensity_min, "Light intensity scale, log-uniform in [intensity_min, intensity_max].")
-        .Min(1e-9);
-    t->Add("intensity_max", &intensity_max, "Upper end of the light intensity scale.").Min(1e-9);
-    t->Add("sun_elevation_min_deg", &sun_elevation_min_deg, "Lowest sun elevation [deg].").Range(0, 90);
-    t->Add("sun_elevation_max_deg", &sun_elevation_max_deg, "Highest sun elevation [deg].").Range(0, 90);
-    t->Add("turbidity_min", &turbidity_min, "Lowest Preetham turbidity (1.7 clear .. 10 hazy).").Range(1.7, 10);
-    t->Add("turbidity_max", &turbidity_max, "Highest Preetham turbidity.").Range(1.7, 10);
-    t->Add("sky_ground_albedo", &sky_ground_albedo, "Albedo of the sky model's lower hemisphere.").Range(0, 1);
+        .Min(1e-9)
+        .Advanced();
+    t->Add("intensity_max", &intensity_max, "Upper end of the light intensity scale.").Min(1e-9).Advanced();
+    t->Add("sun_elevation_min_deg", &sun_elevation_min_deg, "Lowest sun elevation [deg].").Range(0, 90).Advanced();
+    t->Add("sun_elevation_max_deg", &sun_elevation_max_deg, "Highest sun elevation [deg].").Range(0, 90).Advanced();
+    t->Add("turbidity_min", &turbidity_min, "Lowest Preetham turbidity (1.7 clear .. 10 hazy).")
+        .Range(1.7, 10)
+        .Advanced();
+    t->Add("turbidity_max", &turbidity_max, "Highest Preetham turbidity.").Range(1.7, 10).Advanced();
+    t->Add("sky_ground_albedo", &sky_ground_albedo, "Albedo of the sky model's lower hemisphere.")
+        .Range(0, 1)
+        .Advanced();
     t->Add("sun_radius_deg", &sun_radius_deg, "Angular radius of the sun disk [deg] (the real sun: 0.27).")
-        .Range(0.05, 10);
+        .Range(0.05, 10)
+        .Advanced();
     t->Add("envmap_height", &envmap_height,
            "Lat-long height every environment is resampled to, rendered with and written (width = 2 x height).")
-        .Range(16, 4096);
+        .Range(16, 4096)
+        .Advanced();
     t->Add("num_photos", &num_photos, "Photos in the collection.").Range(1, 100000);
     t->Add("elevation_min_deg", &elevation_min_deg, "Lowest camera elevation above the object's centre [deg].")
-        .Range(-30, 89);
-    t->Add("elevation_max_deg", &elevation_max_deg, "Highest camera elevation [deg].").Range(-30, 89);
+        .Range(-30, 89)
+        .Advanced();
+    t->Add("elevation_max_deg", &elevation_max_deg, "Highest camera elevation [deg].").Range(-30, 89).Advanced();
     t->Add("azimuth_jitter_deg", &azimuth_jitter_deg, "Jitter of the evenly spaced camera azimuths [deg].")
-        .Range(0, 180);
-    t->Add("focal_35mm_min", &focal_35mm_min, "Shortest 35 mm-equivalent focal length [mm].").Range(8, 1200);
-    t->Add("focal_35mm_max", &focal_35mm_max, "Longest 35 mm-equivalent focal length [mm].").Range(8, 1200);
+        .Range(0, 180)
+        .Advanced();
+    t->Add("focal_35mm_min", &focal_35mm_min, "Shortest 35 mm-equivalent focal length [mm].").Range(8, 1200).Advanced();
+    t->Add("focal_35mm_max", &focal_35mm_max, "Longest 35 mm-equivalent focal length [mm].").Range(8, 1200).Advanced();
     t->Add("object_fill_min", &object_fill_min, "Smallest object bounding-sphere diameter over the shorter image side.")
-        .Range(0.05, 1.5);
-    t->Add("object_fill_max", &object_fill_max, "Largest object fill.").Range(0.05, 1.5);
-    t->Add("image_size_min", &image_size_min, "Shortest longer image side [px].").Range(16, 16384);
-    t->Add("image_size_max", &image_size_max, "Longest longer image side [px].").Range(16, 16384);
-    t->Add("aspect_ratios", &aspect_ratios, "Width over height of landscape photos, drawn in turn.");
-    t->Add("portrait_fraction", &portrait_fraction, "Fraction of photos held upright (portrait).").Range(0, 1);
-    t->Add("roll_deg_max", &roll_deg_max, "Camera roll uniform in [-max, max] [deg].").Range(0, 45);
+        .Range(0.05, 1.5)
+        .Advanced();
+    t->Add("object_fill_max", &object_fill_max, "Largest object fill.").Range(0.05, 1.5).Advanced();
+    t->Add("image_size_min", &image_size_min, "Shortest longer image side [px].").Range(16, 16384).Advanced();
+    t->Add("image_size_max", &image_size_max, "Longest longer image side [px].").Range(16, 16384).Advanced();
+    t->Add("aspect_ratios", &aspect_ratios, "Width over height of landscape photos, drawn in turn.").Advanced();
+    t->Add("portrait_fraction", &portrait_fraction, "Fraction of photos held upright (portrait).")
+        .Range(0, 1)
+        .Advanced();
+    t->Add("roll_deg_max", &roll_deg_max, "Camera roll uniform in [-max, max] [deg].").Range(0, 45).Advanced();
     t->Add("aim_jitter", &aim_jitter, "Random offset of the aim point from the object's centre [object sizes].")
-        .Range(0, 1);
+        .Range(0, 1)
+        .Advanced();
     t->Add("camera_model", &camera_model, "COLMAP camera model of the photos.")
-        .Choices({"SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL"});
-    t->Add("radial_distortion_max", &radial_distortion_max, "SIMPLE_RADIAL k uniform in [-max, max].").Range(0, 0.3);
+        .Choices({"SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL"})
+        .Advanced();
+    t->Add("radial_distortion_max", &radial_distortion_max, "SIMPLE_RADIAL k uniform in [-max, max].")
+        .Range(0, 0.3)
+        .Advanced()
+        .OnlyWhen("camera_model", {"SIMPLE_RADIAL"});
     t->Add("pixel_samples_per_axis", &pixel_samples_per_axis, "Antialiasing: k x k camera rays per pixel.")
-        .Range(1, 16);
-    t->Add("light_samples", &light_samples, "Environment importance samples per shading point.").Range(0, 4096);
-    t->Add("brdf_samples", &brdf_samples, "BRDF importance samples per shading point.").Range(0, 4096);
-    t->Add("interreflection", &interreflection, "Render one bounce of indirect light (the inverse model ignores it).");
+        .Range(1, 16)
+        .Advanced();
+    t->Add("light_samples", &light_samples, "Environment importance samples per shading point.")
+        .Range(0, 4096)
+        .Advanced();
+    t->Add("brdf_samples", &brdf_samples, "BRDF importance samples per shading point.").Range(0, 4096).Advanced();
+    t->Add("interreflection", &interreflection, "Render one bounce of indirect light.").Advanced();
     t->Add("seed", &seed, "Seed of every random choice and of the renderer.").Min(0);
     t->Add("exposure_key", &exposure_key, "Auto-exposure maps the log-average luminance to this sensor value.")
-        .Range(1e-4, 1);
+        .Range(1e-4, 1)
+        .Advanced();
     t->Add("exposure_jitter_ev", &exposure_jitter_ev, "Exposure offset uniform in [-jitter, jitter] stops.")
-        .Range(0, 10);
+        .Range(0, 10)
+        .Advanced();
     t->Add("white_balance", &white_balance, "White balance: auto (grey world) or none (gains 1).")
-        .Choices({"auto", "none"});
+        .Choices({"auto", "none"})
+        .Advanced();
     t->Add("white_balance_jitter_ev", &white_balance_jitter_ev,
            "Standard deviation of the red and blue gains' error [stops].")
-        .Range(0, 2);
-    t->Add("noise_shot", &noise_shot, "Shot-noise variance per unit sensor value (full scale 1).").Range(0, 0.1);
-    t->Add("noise_read", &noise_read, "Read-noise standard deviation (full scale 1).").Range(0, 0.5);
-    t->Add("jpeg_quality_min", &jpeg_quality_min, "Lowest JPEG quality.").Range(10, 100);
-    t->Add("jpeg_quality_max", &jpeg_quality_max, "Highest JPEG quality.").Range(10, 100);
+        .Range(0, 2)
+        .Advanced();
+    t->Add("noise_shot", &noise_shot, "Shot-noise variance per unit sensor value (full scale 1).")
+        .Range(0, 0.1)
+        .Advanced();
+    t->Add("noise_read", &noise_read, "Read-noise standard deviation (full scale 1).").Range(0, 0.5).Advanced();
+    t->Add("jpeg_quality_min", &jpeg_quality_min, "Lowest JPEG quality.").Range(10, 100).Advanced();
+    t->Add("jpeg_quality_max", &jpeg_quality_max, "Highest JPEG quality.").Range(10, 100).Advanced();
     t->Add("transient_fraction", &transient_fraction,
            "Fraction of photos with a transient occluder (a box between camera and object).")
         .Range(0, 1);
-    t->Add("exif", &exif, "Write the exact 35 mm-equivalent focal length into the photos' EXIF.");
-    t->Add("gt_oct_size", &gt_oct_size, "Side of the octahedral ground-truth env maps (power of two).").Range(4, 1024);
-    t->Add("relight_views", &relight_views, "Held-out views of the relighting references.").Range(0, 64);
-    t->Add("relight_envmaps", &relight_envmaps, "Held-out lat-long env maps (unrotated, intensity 1).").InputFile();
-    t->Add("relight_skies", &relight_skies, "Held-out procedural skies.").Range(0, 64);
-    t->Add("relight_image_size", &relight_image_size, "Side of the square relighting references [px].").Range(16, 8192);
+    t->Add("exif", &exif, "Write the exact 35 mm-equivalent focal length into the photos' EXIF.").Advanced();
+    t->Add("gt_oct_size", &gt_oct_size, "Side of the octahedral ground-truth env maps (power of two).")
+        .Range(4, 1024)
+        .Advanced();
+    t->Add("relight_views", &relight_views, "Held-out views of the relighting references.").Range(0, 64).Advanced();
+    t->Add("relight_envmaps", &relight_envmaps, "Held-out lat-long env maps (unrotated, intensity 1).")
+        .InputFile()
+        .Advanced();
+    t->Add("relight_skies", &relight_skies, "Held-out procedural skies.").Range(0, 64).Advanced();
+    t->Add("relight_image_size", &relight_image_size, "Side of the square relighting references [px].")
+        .Range(16, 8192)
+        .Advanced();
     t->Add("relight_focal_35mm", &relight_focal_35mm, "35 mm-equivalent focal length of the held-out views [mm].")
-        .Range(8, 1200);
+        .Range(8, 1200)
+        .Advanced();
     t->Add("relight_pixel_samples_per_axis", &relight_pixel_samples_per_axis, "Antialiasing of the references.")
-        .Range(1, 16);
+        .Range(1, 16)
+        .Advanced();
     t->Add("relight_light_samples", &relight_light_samples, "Environment samples per shading point (references).")
-        .Range(0, 4096);
+        .Range(0, 4096)
+        .Advanced();
     t->Add("relight_brdf_samples", &relight_brdf_samples, "BRDF samples per shading point (references).")
-        .Range(0, 4096);
+        .Range(0, 4096)
+        .Advanced();
   }
 
   void Check() const {

@@ -29,10 +29,12 @@ struct VisibilityOptions {
     t->Add("origin_offset", &origin_offset,
            "Ray origins move this far along the normal, relative to the vertex's mean incident edge length "
            "(plus a scene-scale float epsilon), to avoid self-intersection acne.")
-        .Range(0, 0.5);
+        .Range(0, 0.5)
+        .Advanced();
     t->Add("chunk_vertices", &chunk_vertices, "Vertices per resumable chunk (a killed run resumes per chunk).")
         .Min(100)
-        .NotInKey();
+        .NotInKey()
+        .Advanced();
   }
   void Check() const {
     if (resolution & (resolution - 1)) {
