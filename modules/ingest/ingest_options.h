@@ -24,7 +24,7 @@ inline FileSelection PhotoFileSelection(bool recursive) {
 struct IngestOptions {
   std::string images;                // Photo folder; empty when the synthesize stage provides the photos.
   std::string format = "photos";     // photos, or diligent (a DiLiGenT photometric-stereo object folder)
-  int diligent_sphere_subdivisions = 5;  // icosphere levels of the ball fitted to a DiLiGenT mask
+  int diligent_sphere_subdivisions = 5;  // subdivision levels of the sphere fitted to a DiLiGenT mask
   std::string ground_truth;          // Optional ground-truth folder carried along for evaluation.
   bool recursive = false;            // Also scan sub-folders.
   int max_image_size = 1600;         // Longest side in pixels after downscaling; 0 keeps the original size.
@@ -49,7 +49,7 @@ struct IngestOptions {
            "folder: the photos, known lights and mask become a scene with ground truth).")
         .Choices({"photos", "diligent"});
     t->Add("diligent_sphere_subdivisions", &diligent_sphere_subdivisions,
-           "format = diligent: subdivision levels of the icosphere fitted to the ball (5: 10242 vertices).")
+           "Subdivision levels of the octahedral sphere fitted to the ball (5: 4098 vertices).")
         .Range(2, 8)
         .Advanced()
         .OnlyWhen("format", {"diligent"});
