@@ -10,7 +10,6 @@
 #include <map>
 
 #include "core/error.h"
-#include "core/stats.h"
 
 namespace relight {
 namespace {
@@ -61,13 +60,6 @@ double FractionWithin(const std::vector<double>& distances, double threshold) {
   if (distances.empty()) return 0.0;
   return double(std::count_if(distances.begin(), distances.end(), [&](double d) { return d <= threshold; })) /
          distances.size();
-}
-
-ChamferDistance MeshChamfer(const TriangleMesh& a, const TriangleMesh& b, size_t samples, uint64_t seed) {
-  ChamferDistance d;
-  d.a_to_b = Mean(DistancesToMesh(SampleSurface(a, samples, seed), b));
-  d.b_to_a = Mean(DistancesToMesh(SampleSurface(b, samples, seed + 1), a));
-  return d;
 }
 
 }  // namespace relight

@@ -1,8 +1,8 @@
 // Geometry metrics of dense reconstructions against ground truth:
 // accuracy / completeness of point clouds at a distance threshold (Seitz et
 // al. 2006, Knapitsch et al. 2017), with points-to-points distances by CGAL's
-// k-d tree; the symmetric Chamfer distance of two meshes from area-uniform
-// surface samples; and the edge topology that says whether a mesh is closed.
+// k-d tree, and the edge topology that says whether a mesh is closed. The
+// Chamfer distances are evaluate's (surface_distance.h, mvs_evaluation.h).
 // Surface sampling and point-to-mesh distances are geometry's
 // (surface_sampling.h, mesh_distance.h), included here for mvs code.
 #pragma once
@@ -32,13 +32,5 @@ std::vector<double> DistancesToPoints(const std::vector<Eigen::Vector3f>& querie
                                       const std::vector<Eigen::Vector3f>& points);
 // Fraction of `distances` at most `threshold`.
 double FractionWithin(const std::vector<double>& distances, double threshold);
-
-// Symmetric Chamfer distance between meshes `a` and `b` from `samples` surface samples each.
-struct ChamferDistance {
-  double a_to_b = 0;  // mean distance of a's samples to b
-  double b_to_a = 0;  // mean distance of b's samples to a
-  double Symmetric() const { return 0.5 * (a_to_b + b_to_a); }
-};
-ChamferDistance MeshChamfer(const TriangleMesh& a, const TriangleMesh& b, size_t samples, uint64_t seed);
 
 }  // namespace relight
