@@ -263,24 +263,31 @@ function prepareLight(map, theta) {
 const color = new Float32Array(nv * 3), g = new Float64Array(3);
 const bFirst = M.bounce_pairs > 0 ? buf('bounce_first') : null, bSource = bFirst && buf('bounce_source'), bWeight = bFirst && buf('bounce_weight');
 const exitRgb = new Float32Array(bFirst ? nv * 3 : 0);
-// Per-vertex linear radiance towards the eye (viewer_export.h).
-function shade(map, theta, eye) {
+// The view-independent part (diffuse and bounce) of the light last shaded, so a camera move shades glossy only.
+const diffuse = new Float32Array(nv * 3); let diffuseOf = null;
+function shadeDiffuse(map, theta) {
   prepareLight(map, theta);
   const L = lightHaar;
   for (let v = 0; v < nv; ++v) {
     let r = 0, gg = 0, b = 0; const o = v * K;
     for (let j = 0; j < K; ++j) { const q = 3 * tIdx[o + j], w = tVal[o + j]; r += w * L[q]; gg += w * L[q + 1]; b += w * L[q + 2]; }
     const sc = tScale[v];
-    color[3 * v] = dif[3 * v] * r * sc; color[3 * v + 1] = dif[3 * v + 1] * gg * sc; color[3 * v + 2] = dif[3 * v + 2] * b * sc;
+    diffuse[3 * v] = dif[3 * v] * r * sc; diffuse[3 * v + 1] = dif[3 * v + 1] * gg * sc; diffuse[3 * v + 2] = dif[3 * v + 2] * b * sc;
   }
   if (bFirst) {  // one bounce: the diffuse exit radiance of the vertices each one sees, onto its diffuse albedo
-    exitRgb.set(color);
+    exitRgb.set(diffuse);
     for (let v = 0; v < nv; ++v) {
       let r = 0, gg = 0, b = 0;
       for (let s = bFirst[v]; s < bFirst[v + 1]; ++s) { const u = 3 * bSource[s], w = bWeight[s]; r += w * exitRgb[u]; gg += w * exitRgb[u + 1]; b += w * exitRgb[u + 2]; }
-      color[3 * v] += dif[3 * v] * r; color[3 * v + 1] += dif[3 * v + 1] * gg; color[3 * v + 2] += dif[3 * v + 2] * b;
+      diffuse[3 * v] += dif[3 * v] * r; diffuse[3 * v + 1] += dif[3 * v + 1] * gg; diffuse[3 * v + 2] += dif[3 * v + 2] * b;
     }
   }
+  diffuseOf = {map, theta};
+}
+// Per-vertex linear radiance towards the eye (viewer_export.h).
+function shade(map, theta, eye) {
+  if (!diffuseOf || diffuseOf.map !== map || diffuseOf.theta !== theta) shadeDiffuse(map, theta);
+  color.set(diffuse);
   if (!lobes.length) return;
   const c = Math.cos(theta), s = Math.sin(theta);
   for (let v = 0; v < nv; ++v) {
@@ -317,7 +324,12 @@ function autoExposure() {
   const q = lum[Math.min(nv - 1, Math.max(0, Math.ceil(M.tonemap_percentile / 100 * nv) - 1))];
   return q > 0 ? 1 / q : 1;
 }
-// WebGL 2: positions and per-vertex colours; exposure and the sRGB curve per fragment.
+// WebGL 2 in two passes. A camera change rasterises the mesh once into a visibility buffer: per pixel the
+// hit triangle (id + 1, 0 for none) and its perspective-correct barycentrics (two unorm16). Every frame then
+// draws one full-screen triangle that interpolates the triangle's three vertex colours (read from a texture
+// the shading fills) and applies exposure and the sRGB curve. Turning the light or changing the exposure
+// thus costs the shading and one pass over the pixels, not the triangles: a software rasteriser
+// (SwiftShader) spends most of a frame on triangle setup for a mesh with about as many triangles as pixels.
 const canvas = document.getElementById('canvas');
 const W = Math.round(num('w', 640)), H = Math.round(num('h', 480));
 canvas.width = W; canvas.height = H; canvas.style.width = W + 'px'; canvas.style.height = H + 'px';
@@ -330,28 +342,94 @@ function compile(type, src) {
   if (!gl.getShaderParameter(sh, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(sh));
   return sh;
 }
-const prog = gl.createProgram();
-gl.attachShader(prog, compile(gl.VERTEX_SHADER, `#version 300 es
-in vec3 a_pos; in vec3 a_rgb; uniform mat4 u_clip_from_world; out vec3 v_rgb;
-void main() { v_rgb = a_rgb; gl_Position = u_clip_from_world * vec4(a_pos, 1.0); }`));
-gl.attachShader(prog, compile(gl.FRAGMENT_SHADER, `#version 300 es
-precision highp float; in vec3 v_rgb; uniform float u_exposure; out vec4 o;
-float srgb(float x) { x = clamp(x, 0.0, 1.0); return x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055; }
-void main() { vec3 c = v_rgb * u_exposure; o = vec4(srgb(c.r), srgb(c.g), srgb(c.b), 1.0); }`));
-gl.linkProgram(prog);
-if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
-gl.useProgram(prog);
-function attrib(name, data, usage) {
-  const b = gl.createBuffer(); gl.bindBuffer(gl.ARRAY_BUFFER, b); gl.bufferData(gl.ARRAY_BUFFER, data, usage);
-  const loc = gl.getAttribLocation(prog, name); gl.enableVertexAttribArray(loc); gl.vertexAttribPointer(loc, 3, gl.FLOAT, false, 0, 0);
-  return b;
+function program(vs, fs) {
+  const p = gl.createProgram();
+  gl.attachShader(p, compile(gl.VERTEX_SHADER, vs)); gl.attachShader(p, compile(gl.FRAGMENT_SHADER, fs));
+  gl.linkProgram(p);
+  if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(p));
+  return p;
 }
-gl.bindVertexArray(gl.createVertexArray());
-attrib('a_pos', pos, gl.STATIC_DRAW);
-const colorBuffer = attrib('a_rgb', color, gl.DYNAMIC_DRAW);
-const ib = gl.createBuffer(); gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ib); gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, tri, gl.STATIC_DRAW);
-gl.enable(gl.DEPTH_TEST); gl.viewport(0, 0, W, H); gl.clearColor(0, 0, 0, 1);
-const uClip = gl.getUniformLocation(prog, 'u_clip_from_world'), uExp = gl.getUniformLocation(prog, 'u_exposure');
+// Per-vertex and per-triangle data live in 2D textures texW texels wide (texelFetch by index).
+const nt = tri.length / 3, texW = Math.min(gl.getParameter(gl.MAX_TEXTURE_SIZE), 2048);
+const rowsFor = count => Math.max(1, Math.ceil(count / texW));
+if (rowsFor(Math.max(nv, nt)) > gl.getParameter(gl.MAX_TEXTURE_SIZE)) { fail('the model is too large for this GPU\'s textures'); return; }
+function dataTexture(internal, format, type, data, count, comps) {
+  const rows = rowsFor(count), full = new data.constructor(texW * rows * comps); full.set(data);
+  const t = gl.createTexture(); gl.bindTexture(gl.TEXTURE_2D, t);
+  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST); gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+  gl.texImage2D(gl.TEXTURE_2D, 0, internal, texW, rows, 0, format, type, full);
+  return {tex: t, rows, full};
+}
+// Pass 1: triangle t's corner k is vertex 3t + k of a non-indexed draw; positions are gathered per corner.
+const cornerPos = new Float32Array(nt * 9);
+for (let i = 0; i < nt * 3; ++i) { const v = tri[i]; cornerPos[3 * i] = pos[3 * v]; cornerPos[3 * i + 1] = pos[3 * v + 1]; cornerPos[3 * i + 2] = pos[3 * v + 2]; }
+const visProg = program(`#version 300 es
+in vec3 a_pos; uniform mat4 u_clip_from_world; flat out uint v_tri; out vec2 v_bary;
+void main() {
+  int k = gl_VertexID % 3; v_tri = uint(gl_VertexID / 3) + 1u;
+  v_bary = vec2(k == 1 ? 1.0 : 0.0, k == 2 ? 1.0 : 0.0);
+  gl_Position = u_clip_from_world * vec4(a_pos, 1.0);
+}`, `#version 300 es
+precision highp float; precision highp int; flat in uint v_tri; in vec2 v_bary; layout(location = 0) out uvec2 o;
+void main() { o = uvec2(v_tri, packUnorm2x16(v_bary)); }`);
+const visVao = gl.createVertexArray(); gl.bindVertexArray(visVao);
+gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer()); gl.bufferData(gl.ARRAY_BUFFER, cornerPos, gl.STATIC_DRAW);
+const aPos = gl.getAttribLocation(visProg, 'a_pos'); gl.enableVertexAttribArray(aPos); gl.vertexAttribPointer(aPos, 3, gl.FLOAT, false, 0, 0);
+const visTex = gl.createTexture(); gl.bindTexture(gl.TEXTURE_2D, visTex);
+gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST); gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RG32UI, W, H);
+const visFbo = gl.createFramebuffer(); gl.bindFramebuffer(gl.FRAMEBUFFER, visFbo);
+gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, visTex, 0);
+const depth = gl.createRenderbuffer(); gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
+gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT24, W, H);
+gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
+if (gl.checkFramebufferStatus(gl.FRAMEBUFFER) !== gl.FRAMEBUFFER_COMPLETE) { fail('the visibility buffer is not renderable'); return; }
+gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+const uClip = gl.getUniformLocation(visProg, 'u_clip_from_world');
+// Pass 2: a full-screen triangle.
+const resolveProg = program(`#version 300 es
+void main() { gl_Position = vec4(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0, 0.0, 1.0); }`,
+`#version 300 es
+precision highp float; precision highp int; precision highp usampler2D;
+uniform highp usampler2D u_vis, u_tris; uniform highp sampler2D u_rgb; uniform float u_exposure; uniform int u_tex_w;
+out vec4 o;
+ivec2 at(uint i) { return ivec2(int(i) % u_tex_w, int(i) / u_tex_w); }
+float srgb(float x) { x = clamp(x, 0.0, 1.0); return x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055; }
+void main() {
+  uvec2 g = texelFetch(u_vis, ivec2(gl_FragCoord.xy), 0).xy;
+  if (g.x == 0u) { o = vec4(0.0, 0.0, 0.0, 1.0); return; }
+  uvec3 t = texelFetch(u_tris, at(g.x - 1u), 0).xyz; vec2 b = unpackUnorm2x16(g.y);
+  vec3 c = ((1.0 - b.x - b.y) * texelFetch(u_rgb, at(t.x), 0).rgb + b.x * texelFetch(u_rgb, at(t.y), 0).rgb +
+            b.y * texelFetch(u_rgb, at(t.z), 0).rgb) * u_exposure;
+  o = vec4(srgb(c.r), srgb(c.g), srgb(c.b), 1.0);
+}`);
+const resolveVao = gl.createVertexArray();
+const triTex = dataTexture(gl.RGB32UI, gl.RGB_INTEGER, gl.UNSIGNED_INT, tri, nt, 3);
+const rgbTex = dataTexture(gl.RGBA32F, gl.RGBA, gl.FLOAT, new Float32Array(0), nv, 4);  // RGBA: no conversion
+gl.useProgram(resolveProg);
+gl.uniform1i(gl.getUniformLocation(resolveProg, 'u_vis'), 0); gl.uniform1i(gl.getUniformLocation(resolveProg, 'u_tris'), 1);
+gl.uniform1i(gl.getUniformLocation(resolveProg, 'u_rgb'), 2); gl.uniform1i(gl.getUniformLocation(resolveProg, 'u_tex_w'), texW);
+const uExp = gl.getUniformLocation(resolveProg, 'u_exposure');
+gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, visTex);
+gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, triTex.tex);
+gl.activeTexture(gl.TEXTURE2); gl.bindTexture(gl.TEXTURE_2D, rgbTex.tex);
+gl.viewport(0, 0, W, H);
+let visCamera = null;  // the camera the visibility buffer holds
+function drawVisibility(cam, key) {
+  gl.bindFramebuffer(gl.FRAMEBUFFER, visFbo); gl.useProgram(visProg); gl.bindVertexArray(visVao);
+  gl.enable(gl.DEPTH_TEST); gl.clearBufferuiv(gl.COLOR, 0, new Uint32Array(4)); gl.clearBufferfv(gl.DEPTH, 0, [1]);
+  gl.uniformMatrix4fv(uClip, false, cam.clip);
+  gl.drawArrays(gl.TRIANGLES, 0, nt * 3);
+  gl.bindFramebuffer(gl.FRAMEBUFFER, null); gl.disable(gl.DEPTH_TEST);
+  visCamera = key;
+}
+function drawColours(exposure) {
+  const f = rgbTex.full;
+  for (let v = 0; v < nv; ++v) { f[4 * v] = color[3 * v]; f[4 * v + 1] = color[3 * v + 1]; f[4 * v + 2] = color[3 * v + 2]; }
+  gl.activeTexture(gl.TEXTURE2); gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, texW, rgbTex.rows, gl.RGBA, gl.FLOAT, f);
+  gl.useProgram(resolveProg); gl.bindVertexArray(resolveVao); gl.uniform1f(uExp, exposure);
+  gl.drawArrays(gl.TRIANGLES, 0, 3);
+}
 // Orbit camera (ViewerOrbitCamera): eye, then clip_from_world = perspective * lookAt (column-major).
 function camera(azDeg, elDeg) {
   const az = azDeg * Math.PI / 180, el = Math.min(89, Math.max(-89, elDeg)) * Math.PI / 180;
@@ -383,11 +461,9 @@ function frame_(sync) {
   shade(maps[state.map], state.rotate * Math.PI / 180, cam.eye);
   if (autoExp === null) autoExp = autoExposure();
   const t1 = performance.now();
-  gl.bindBuffer(gl.ARRAY_BUFFER, colorBuffer); gl.bufferSubData(gl.ARRAY_BUFFER, 0, color);
-  gl.uniformMatrix4fv(uClip, false, cam.clip);
-  gl.uniform1f(uExp, (state.exposure !== null ? state.exposure : autoExp) * Math.pow(2, state.ev));
-  gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
-  gl.drawElements(gl.TRIANGLES, tri.length, gl.UNSIGNED_INT, 0);
+  const key = state.az + ',' + state.el;
+  if (visCamera !== key) drawVisibility(cam, key);
+  drawColours((state.exposure !== null ? state.exposure : autoExp) * Math.pow(2, state.ev));
   if (sync) gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));  // waits for the GPU
   return {total: performance.now() - t0, shade: t1 - t0};
 }
@@ -398,7 +474,8 @@ el('map').addEventListener('change', () => { state.map = +el('map').value; autoE
 ['rotate', 'az', 'el', 'ev'].forEach(k => el(k).addEventListener('input', () => { state[k] = +el(k).value; request(); }));
 // bench=N: N frames with the light turning 360/N degrees per frame, timed twice: pipelined as a browser runs
 // them (the GPU draws one frame while JavaScript shades the next; one readPixels after the last waits for all)
-// and synced (a readPixels after every frame waits for it: JavaScript and GPU times add up).
+// and synced (a readPixels after every frame waits for it: JavaScript and GPU times add up); then N frames
+// with the camera orbiting 360/N degrees per frame (pipelined), which rasterise the triangles every frame.
 const benchFrames = Math.round(num('bench', 0));
 statusEl.dataset.renderer = renderer; statusEl.dataset.vertices = nv;
 if (benchFrames > 0) {
@@ -413,6 +490,11 @@ if (benchFrames > 0) {
     else { statusEl.dataset.msPerFrame = ms.toFixed(3); statusEl.dataset.shadeMsPerFrame = (shadeMs / benchFrames).toFixed(3); }
   }
   state.rotate = start;
+  const az0 = state.az, t0 = performance.now();
+  for (let i = 0; i < benchFrames; ++i) { state.az = az0 + 360 * (i + 1) / benchFrames; frame_(false); }
+  gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+  statusEl.dataset.msPerFrameOrbit = ((performance.now() - t0) / benchFrames).toFixed(3);
+  state.az = az0;
 }
 const t = frame_(true);
 label();
