@@ -59,6 +59,8 @@ struct StageContext {
   bool HasInput(const std::string& name) const { return inputs.count(name) > 0; }
   // The output folder of upstream stage `name`; throws UserError when it was not given.
   const std::string& Input(const std::string& name) const;
+  // The output folder of upstream stage `name`, or "" when it was not given (an optional input).
+  std::string OptionalInput(const std::string& name) const { return HasInput(name) ? Input(name) : std::string(); }
   // Path of a file in the output folder.
   std::string OutputPath(const std::string& relative) const;
 };

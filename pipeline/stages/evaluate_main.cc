@@ -3,18 +3,17 @@
 
 int main(int argc, char** argv) {
   using namespace relight;
-  return StageMain<EvaluateOptions>(
-      argc, argv, kEvaluateStage, [](const EvaluateOptions& options, const StageContext& ctx) {
-        auto input = [&](const char* name) { return ctx.HasInput(name) ? ctx.Input(name) : std::string(); };
-        EvaluateInputs inputs;
-        inputs.ingest_dir = input("ingest");
-        inputs.sfm_dir = input("sfm");
-        inputs.mesh_dir = input("mesh");
-        inputs.linearize_dir = input("linearize");
-        inputs.observe_dir = input("observe");
-        inputs.visibility_dir = input("visibility");
-        inputs.inverse_dir = input("inverse");
-        inputs.relight_dir = input("relight");
-        return RunEvaluate(options, inputs, ctx.output_dir);
-      });
+  return StageMain<EvaluateOptions>(argc, argv, kEvaluateStage,
+                                    [](const EvaluateOptions& options, const StageContext& ctx) {
+                                      EvaluateInputs inputs;
+                                      inputs.ingest_dir = ctx.OptionalInput("ingest");
+                                      inputs.sfm_dir = ctx.OptionalInput("sfm");
+                                      inputs.mesh_dir = ctx.OptionalInput("mesh");
+                                      inputs.linearize_dir = ctx.OptionalInput("linearize");
+                                      inputs.observe_dir = ctx.OptionalInput("observe");
+                                      inputs.visibility_dir = ctx.OptionalInput("visibility");
+                                      inputs.inverse_dir = ctx.OptionalInput("inverse");
+                                      inputs.relight_dir = ctx.OptionalInput("relight");
+                                      return RunEvaluate(options, inputs, ctx.output_dir);
+                                    });
 }

@@ -4,6 +4,6 @@
 int main(int argc, char** argv) {
   using namespace relight;
   return StageMain<IngestOptions>(argc, argv, kIngestStage, [](const IngestOptions& options, const StageContext& ctx) {
-    return RunIngest(options, {ctx.HasInput("synthesize") ? ctx.Input("synthesize") : ""}, ctx.output_dir);
+    return RunIngest(options, {ctx.OptionalInput("synthesize")}, ctx.output_dir);
   });
 }

@@ -71,7 +71,7 @@ int main(int argc, char** argv) {
         InverseProblem problem = ReadInverseProblem(ctx.Input("mesh"), ctx.Input("visibility"), ctx.Input("observe"));
         KnownQuantities known;
         if (options.fixed_lighting || options.fixed_reflectance || options.start_from_truth)
-          known = ReadKnown(options, ctx.HasInput("ingest") ? ctx.Input("ingest") : "", problem);
+          known = ReadKnown(options, ctx.OptionalInput("ingest"), problem);
         return RunInverse(options, problem, known, ctx.output_dir);
       });
 }

@@ -7,8 +7,8 @@ int main(int argc, char** argv) {
   using namespace relight;
   return StageMain<MeshOptions>(argc, argv, kMeshStage, [](const MeshOptions& options, const StageContext& ctx) {
     MeshInputs inputs;
-    if (ctx.HasInput("sfm")) inputs.sfm_dir = ctx.Input("sfm");
-    if (ctx.HasInput("mvs")) inputs.mvs_dir = ctx.Input("mvs");
+    inputs.sfm_dir = ctx.OptionalInput("sfm");
+    inputs.mvs_dir = ctx.OptionalInput("mvs");
     if (options.source == "ground_truth") {  // the true mesh and occluders, carried along by ingest
       if (!ctx.HasInput("ingest"))
         RELIGHT_USER_ERROR() << "mesh.source is ground_truth: the ingest stage output is needed";

@@ -43,12 +43,11 @@ int main(int argc, char** argv) {
   return StageMain<RelightOptions>(
       argc, argv, kRelightStage, [](const RelightOptions& options, const StageContext& ctx) {
         RelightInputs inputs;
-        inputs.sfm_dir = ctx.HasInput("sfm") ? ctx.Input("sfm") : "";
-        inputs.mesh_dir = ctx.HasInput("mesh") ? ctx.Input("mesh") : "";
+        inputs.sfm_dir = ctx.OptionalInput("sfm");
+        inputs.mesh_dir = ctx.OptionalInput("mesh");
         inputs.inverse_dir = ctx.Input("inverse");
-        inputs.visibility_dir = ctx.HasInput("visibility") ? ctx.Input("visibility") : "";
-        if (options.heldout)
-          inputs.heldout = TrueHeldoutViews(ctx.HasInput("ingest") ? ctx.Input("ingest") : "", inputs.sfm_dir);
+        inputs.visibility_dir = ctx.OptionalInput("visibility");
+        if (options.heldout) inputs.heldout = TrueHeldoutViews(ctx.OptionalInput("ingest"), inputs.sfm_dir);
         return RunRelight(options, inputs, ctx.output_dir, ctx.shard);
       });
 }
