@@ -879,7 +879,8 @@ size_t HaarCoefficients99(const Image& oct, int n_out) {
 }
 
 // Which directions the photos see, which the priors fill (envmaps/<stem>_determined.png, white: the photos'), and the
-// daylight model fitted to what the photos determine, into the photo's lighting.json entry.
+// daylight model fitted to what the photos determine (and how much of it that model explains), into the photo's
+// lighting.json entry.
 void WriteDataShare(const MapResolution& m, const Image& oct, int n_out, const std::string& stem,
                     const std::string& output_dir, Json* entry) {
   Image share(n_out, n_out, 1);
@@ -903,7 +904,8 @@ void WriteDataShare(const MapResolution& m, const Image& oct, int n_out, const s
   const Eigen::Vector3d& sun = sky.sun_dir_world;
   (*entry)["sun"] = {{"direction_world", {sun.x(), sun.y(), sun.z()}},
                      {"elevation_deg", std::asin(std::clamp(sun.z(), -1.0, 1.0)) * 180.0 / M_PI},
-                     {"irradiance_share", sky.sun_irradiance_share}};
+                     {"irradiance_share", sky.sun_irradiance_share},
+                     {"daylight_explained_variation", sky.explained_variation}};
 }
 
 // One photo's maps (envmaps/<stem>_oct.exr, _latlong.exr, _determined.png) and its lighting.json entry; its numbers

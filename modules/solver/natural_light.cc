@@ -146,6 +146,10 @@ NaturalLight FitNaturalLight(const std::array<const double*, 3>& map, const std:
     }
   NaturalLight zero;
   if (texels.empty() || weight_sum <= 0) return zero;
+  // The variation about the weighted mean: the residual of the best constant map.
+  Eigen::Vector3d weighted_value = Eigen::Vector3d::Zero();
+  for (const Texel& t : texels) weighted_value += t.weight * t.value;
+  const double variation = weighted_sq - weighted_value.squaredNorm() / weight_sum;
   const double sun_sigma = 0.5 * std::sqrt(4 * kPi) / n;  // half a texel, averaged over the texel
 
   Candidate best;
@@ -170,6 +174,8 @@ NaturalLight FitNaturalLight(const std::array<const double*, 3>& map, const std:
         if (c.cost < best.cost) best = c;
       }
   }
+  const double residual = best.model.weighted_rms * best.model.weighted_rms * 3 * weight_sum;
+  best.model.explained_variation = variation > 0 ? std::clamp(1 - residual / variation, 0.0, 1.0) : 1.0;
   return best.model;
 }
 

@@ -37,6 +37,10 @@ struct NaturalLight {
   using Terms = Eigen::Matrix<double, kTerms, 1>;
   std::array<Terms, 3> coefficients{Terms::Zero(), Terms::Zero(), Terms::Zero()};
   double weighted_rms = 0;          // weighted RMS of the fit over the map's texels
+  // Share of the weighted texels' variation about their weighted mean (per channel, summed) that the model
+  // explains, in [0, 1]: near 1 for daylight, low for light the model cannot describe (an interior, a street
+  // between walls), for which the daylight prior is the wrong fill (inverse.light_prior smooth).
+  double explained_variation = 0;
   double sun_irradiance_share = 0;  // share of the horizontal irradiance from the sun and circumsolar terms
 
   // Radiance (RGB) in a world direction.

@@ -127,5 +127,36 @@ TEST(NaturalLightTest, NoWeightGivesNoLight) {
   EXPECT_EQ(fit.Radiance(Eigen::Vector3d::UnitZ()).norm(), 0.0);
 }
 
+// How much of a map the model explains (lighting.json's daylight_explained_variation): a clear sky is described
+// by the model, the view up from a street between lit and shaded walls is not (less than half).
+TEST(NaturalLightTest, ExplainsTheVariationOfASkyButNotOfAStreet) {
+  const int n = 32;
+  SunSkyParams sky;
+  sky.sun_dir_world = Eigen::Vector3d(0.5, 0.2, 0.6).normalized();
+  sky.turbidity = 4;
+  sky.sun_radius_deg = 3;
+  const NaturalLight clear =
+      FitNaturalLight(FromImage(MakeSunSky(sky, 128).ToOctahedral(n)).Channels(), UpperWeights(n), n);
+  EXPECT_GT(clear.explained_variation, 0.9);
+  // The street runs along x: a strip of overcast sky overhead (|y| < 0.3), walls up to it whose facades alternate
+  // between sunlit and shaded every 45° of azimuth (windows, balconies), and the photos see all of it.
+  OctMap street;
+  street.n = n;
+  for (auto& ch : street.c) ch.assign(static_cast<size_t>(n) * n, 0.0);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3d d = OctTexelDirection(i, j, n);
+      const double azimuth = std::atan2(d.y(), d.x());
+      double v = (static_cast<int>(std::floor(azimuth / (kPi / 4))) % 2 == 0) ? 0.6 : 0.05;
+      if (d.z() > 0 && std::abs(d.y()) < 0.3) v = 1.0;
+      if (d.z() < -0.2) v = 0.1;
+      for (int ch = 0; ch < 3; ++ch) street.c[ch][static_cast<size_t>(j) * n + i] = v;
+    }
+  const NaturalLight walls = FitNaturalLight(street.Channels(), std::vector<double>(n * n, 1.0), n);
+  EXPECT_LT(walls.explained_variation, 0.5);
+  std::printf("explained variation: clear sky %.3f, street %.3f\n", clear.explained_variation,
+              walls.explained_variation);
+}
+
 }  // namespace
 }  // namespace relight
