@@ -174,7 +174,7 @@ NaturalLight FitNaturalLight(const std::array<const double*, 3>& map, const std:
         if (c.cost < best.cost) best = c;
       }
   }
-  const double residual = best.model.weighted_rms * best.model.weighted_rms * 3 * weight_sum;
+  const double residual = std::max(0.0, best.cost);
   best.model.explained_variation = variation > 0 ? std::clamp(1 - residual / variation, 0.0, 1.0) : 1.0;
   return best.model;
 }
