@@ -461,7 +461,10 @@ class ReportBuilder {
            "finest detail down to which at least half of every wavelet level is fixed. A diffuse object fixes few "
            "and coarse ones, a shiny one many and fine ones; detail finer than that in the map is not measured. "
            "The grey map beside it (same layout as the octahedral map) shows each direction's share from the "
-           "photos: white where observations receive light from it, black where only the priors set it.</p>\n";
+           "photos: white where observations receive light from it, black where only the priors set it. Below "
+           "it, the sun of a daylight model (sky, sun, ground) fitted to the seen part, and how much of the seen "
+           "part's variation that model explains: low for light that is not open sky (walls, a courtyard, an "
+           "interior), or for a map whose seen part is noise; its sun then means little.</p>\n";
     }
     std::vector<std::vector<std::string>> rows;
     const int oct_w = std::max(96, o_.tile_px / 2);
@@ -496,6 +499,11 @@ class ReportBuilder {
             cell += "<br>sun " + html::Number(Num(sun, "elevation_deg"), 0) + "&deg; high, azimuth " +
                     html::Number(azimuth < 0 ? azimuth + 360 : azimuth, 0) + "&deg; from +X, " +
                     html::Number(100 * Num(sun, "irradiance_share"), 0) + "% of the light on the ground";
+            // How far the seen part is daylight at all (low: walls, a courtyard, or a map the model cannot
+            // make sense of, in which case its sun means little).
+            if (sun.contains("daylight_explained_variation"))
+              cell += "; the daylight model explains " +
+                      html::Number(100 * Num(sun, "daylight_explained_variation"), 0) + "% of the seen part";
           }
           row.push_back(cell);
         }

@@ -182,12 +182,15 @@ TEST(ReportBrowser, TinySyntheticChainPageLoadsInHeadlessChromium) {
     EXPECT_NEAR(p["sun"]["elevation_deg"].get<double>(), std::asin(sun[2]) * 180 / M_PI, 1e-9);
     EXPECT_GE(p["sun"]["irradiance_share"].get<double>(), 0.0);
     EXPECT_LE(p["sun"]["irradiance_share"].get<double>(), 1.0);
+    EXPECT_GE(p["sun"]["daylight_explained_variation"].get<double>(), 0.0);
+    EXPECT_LE(p["sun"]["daylight_explained_variation"].get<double>(), 1.0);
   }
   EXPECT_TRUE(std::regex_search(
       source, match,
       std::regex("<br>[0-9]+ of 256(, detail to [0-9]+&deg;|, the mean only)<br>sun [0-9]+&deg; high, azimuth "
-                 "[0-9]+&deg; from \\+X, [0-9]+% of the light on the ground</td>")))
-      << "the env-map table's 'determined by the photos' column, with the fitted sun";
+                 "[0-9]+&deg; from \\+X, [0-9]+% of the light on the ground; the daylight model explains [0-9]+% of "
+                 "the seen part</td>")))
+      << "the env-map table's 'determined by the photos' column, with the fitted sun and how well it fits";
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.svg"));
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.csv"));
   // Accuracy against time: every start's iterations at increasing wall clock, then the kept iterate, which
