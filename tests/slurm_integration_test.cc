@@ -109,9 +109,10 @@ std::vector<std::string> CompareStage(const fs::path& local, const fs::path& slu
   return diffs;
 }
 
-std::string StageOutput(const Json& summary, const std::string& name) {
+// `field` of stage `name` in a summary.json.
+std::string StageField(const Json& summary, const std::string& name, const std::string& field) {
   for (const Json& stage : summary["stages"])
-    if (stage["name"] == name) return stage["output_dir"];
+    if (stage["name"] == name) return stage[field];
   ADD_FAILURE() << "no stage '" << name << "' in summary.json";
   return "";
 }
@@ -181,9 +182,8 @@ TEST(SlurmIntegrationTest, ChainOnSlurmEqualsLocalRunAndRerunsACancelledShard) {
   // The local run's solve, under the key the Slurm run computed for it.
   {
     const Json planned = ReadJsonFile(ws + "/summary.json");
-    std::string inverse_key;
-    for (const Json& stage : planned["stages"])
-      if (stage["name"] == "inverse") inverse_key = stage["key"];
+    const std::string inverse_key = StageField(planned, "inverse", "key");
+    ASSERT_FALSE(inverse_key.empty());
     const fs::path local_inverse = fs::path(local_ws) / "cache/inverse" / inverse_key;
     ASSERT_TRUE(fs::is_regular_file(local_inverse / "status.json"))
         << "inverse: the Slurm run's key " << inverse_key << " is not a key of the local run (its inputs differ)";
@@ -212,7 +212,8 @@ TEST(SlurmIntegrationTest, ChainOnSlurmEqualsLocalRunAndRerunsACancelledShard) {
   }
   EXPECT_EQ(compared, 12);
   // The shards ran as job arrays: 5 passes of mvs, and relight's pass, each of 4 tasks.
-  const std::string mvs_dir = StageOutput(summary, "mvs"), relight_dir = StageOutput(summary, "relight");
+  const std::string mvs_dir = StageField(summary, "mvs", "output_dir"),
+                    relight_dir = StageField(summary, "relight", "output_dir");
   for (int i = 0; i < 4; ++i) {
     for (int step = 0; step < 5; ++step)
       EXPECT_TRUE(

@@ -501,7 +501,7 @@ class ReportBuilder {
                     html::Number(100 * Num(sun, "irradiance_share"), 0) + "% of the light on the ground";
             // How far the seen part is daylight at all (low: walls, a courtyard, or a map the model cannot
             // make sense of, in which case its sun means little).
-            if (sun.contains("daylight_explained_variation"))
+            if (sun.contains("daylight_explained_variation") && sun["daylight_explained_variation"].is_number())
               cell += "; the daylight model explains " +
                       html::Number(100 * Num(sun, "daylight_explained_variation"), 0) + "% of the seen part";
           }
