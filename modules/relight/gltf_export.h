@@ -27,6 +27,7 @@
 #include "core/json.h"
 #include "geometry/mesh.h"
 #include "relight/views.h"
+#include "render/lighting.h"
 #include "sphere/envmap.h"
 
 namespace relight {
@@ -81,6 +82,11 @@ GltfModelSummary WriteModelGlb(const std::string& path, const TriangleMesh& mesh
 struct RecoveredPhoto {
   std::string name;                    // photo file name
   EnvMap envmap;                       // recovered map (world frame), unseen texels zeroed when relight asks
+  // The sun the inverse stage solved as its own light (lighting.json "sun", "irradiance_rgb"), which `envmap`
+  // holds in the one texel around its direction; `sky` is `envmap` without it. Re-renderings trace the sun as
+  // a delta light (one shadow ray per shading point) under the sky.
+  std::optional<DirectionalLight> sun;
+  EnvMap sky;
   std::optional<RenderCamera> camera;  // from <sfm>/sparse; empty when the photo has none there
 };
 

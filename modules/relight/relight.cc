@@ -145,12 +145,20 @@ std::vector<RecoveredPhoto> LoadRecoveredPhotos(const RelightOptions& o, const R
     const std::string oct = JoinPath(in.inverse_dir, p.at("envmap_oct").get<std::string>());
     if (!fs::is_regular_file(oct)) RELIGHT_USER_ERROR() << "'" << oct << "' is missing; rerun the inverse stage";
     Image map = ReadImage(oct);
+    Image sky;
+    photo.sun = SolvedSun(p, map, &sky);
     if (o.zero_unseen_light) {
       auto it = unseen_by_size.find(map.width);
       if (it == unseen_by_size.end()) it = unseen_by_size.emplace(map.width, UnseenOctTexels(scene, map.width)).first;
+      if (photo.sun) {
+        const Eigen::Vector2i t = OctTexelOf(photo.sun->dir_world, map.width);
+        if (it->second[size_t(t.y()) * map.width + t.x()]) photo.sun.reset();  // a sun no vertex sees: unseen light
+      }
       map = ZeroTexels(map, it->second);
+      if (photo.sun) sky = ZeroTexels(sky, it->second);
     }
     photo.envmap = EnvMap::FromOctahedral(map);
+    if (photo.sun) photo.sky = EnvMap::FromOctahedral(sky);
     photos.push_back(std::move(photo));
   }
   return photos;
@@ -237,6 +245,25 @@ std::vector<Scene::Surface> ModelSurfaces(const TriangleMesh& object_mesh, const
   if (!occluders.empty())
     surfaces.push_back({occluders, LambertianModel(occluder_albedo, "occluder"), SurfaceRole::kOccluder});
   return surfaces;
+}
+
+std::optional<DirectionalLight> SolvedSun(const Json& entry, const Image& oct, Image* sky) {
+  if (!entry.contains("sun") || !entry["sun"].contains("irradiance_rgb") || oct.width != oct.height ||
+      oct.channels < 3 || oct.width <= 0) {
+    return std::nullopt;
+  }
+  const auto d = entry["sun"].at("direction_world").get<std::vector<double>>();
+  const auto e = entry["sun"].at("irradiance_rgb").get<std::vector<double>>();
+  if (d.size() != 3 || e.size() != 3) return std::nullopt;
+  const Eigen::Vector3d dir(d[0], d[1], d[2]);
+  if (!(dir.norm() > 0) || !(std::min({e[0], e[1], e[2]}) >= 0)) return std::nullopt;
+  const int n = oct.width;
+  const Eigen::Vector2i t = OctTexelOf(dir, n);
+  const double omega = OctTexelSolidAngle(t.x(), t.y(), n);
+  *sky = oct;
+  for (int c = 0; c < 3; ++c)
+    sky->at(t.x(), t.y(), c) = std::max(0.0f, static_cast<float>(oct.at(t.x(), t.y(), c) - e[c] / omega));
+  return DirectionalLight{dir.normalized(), Eigen::Vector3d(e[0], e[1], e[2])};
 }
 
 std::vector<char> UnseenOctTexels(const Scene& scene, int n, int max_vertices) {
@@ -482,7 +509,13 @@ void AddRerenderJobs(const RelightOptions& o, const std::vector<RecoveredPhoto>&
       camera.width = w;
       camera.height = h;
     }
-    job.lighting = EnvLighting(photo.envmap);
+    if (photo.sun) {
+      auto lighting = std::make_shared<Lighting>(Lighting::FromEnvMap(photo.sky));
+      lighting->directional.push_back(*photo.sun);
+      job.lighting = std::move(lighting);
+    } else {
+      job.lighting = EnvLighting(photo.envmap);
+    }
     job.background = o.background;
     job.stream = kRerender;
     job.view_index = index++;

@@ -29,6 +29,7 @@
 
 #include <Eigen/Core>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -94,6 +95,11 @@ std::vector<char> UnseenOctTexels(const Scene& scene, int n, int max_vertices = 
 // pixel unchanged while it stops the renderer's light sampling from wasting samples on them (the extrapolated
 // lower hemisphere under a ground plane is often the brightest part of a recovered map).
 Image ZeroTexels(const Image& oct, const std::vector<char>& unseen);
+
+// The sun a photo's lighting.json entry says the inverse stage solved as its own light ("sun" with
+// "irradiance_rgb", docs/FORMATS.md), with `sky` set to the photo's octahedral map `oct` without it (the sun's
+// irradiance over the solid angle of the texel that holds it, taken from that texel); empty without one.
+std::optional<DirectionalLight> SolvedSun(const Json& entry, const Image& oct, Image* sky);
 
 // Per-vertex colour of the dominant material (largest weight), from a fixed qualitative palette.
 std::vector<Eigen::Vector3f> DominantMaterialColors(const TriangleMesh& mesh, int num_materials);

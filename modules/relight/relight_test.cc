@@ -84,6 +84,45 @@ TEST(Envmaps, EntriesThatAreNotUsableMapsNameTheEntryAndWhatToDo) {
   EXPECT_EQ(LoadRelightEnvmaps({dir / "good.exr"}).size(), 1u);
 }
 
+// A sun the inverse stage solved as its own light sits in the one texel around its direction: re-renderings take
+// exactly its irradiance out of that texel (the sky left as it was) and trace it as a delta light.
+TEST(SolvedSun, TakesTheSunsIrradianceOutOfItsTexel) {
+  const int n = 32;
+  const Eigen::Vector3d sky_rgb(0.2, 0.3, 0.5), e(4.0, 3.5, 3.0);
+  const Eigen::Vector3d d = Eigen::Vector3d(0.3, -0.5, 0.6).normalized();
+  Image oct(n, n, 3);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) oct.at(i, j, c) = static_cast<float>(sky_rgb[c]);
+  const Eigen::Vector2i t = OctTexelOf(d, n);
+  const double omega = OctTexelSolidAngle(t.x(), t.y(), n);
+  for (int c = 0; c < 3; ++c) oct.at(t.x(), t.y(), c) += static_cast<float>(e[c] / omega);
+  const Json entry = {{"sun", {{"direction_world", {d.x(), d.y(), d.z()}}, {"irradiance_rgb", {e.x(), e.y(), e.z()}}}}};
+  Image sky;
+  const std::optional<DirectionalLight> sun = SolvedSun(entry, oct, &sky);
+  ASSERT_TRUE(sun.has_value());
+  EXPECT_LT((sun->dir_world - d).norm(), 1e-12);
+  EXPECT_LT((sun->irradiance_rgb - e).norm(), 1e-12);
+  Eigen::Vector3d taken = Eigen::Vector3d::Zero();
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(sky.at(i, j, c), sky_rgb[c], 1e-5 * e[c] / omega) << i << " " << j;
+        taken[c] += (oct.at(i, j, c) - sky.at(i, j, c)) * OctTexelSolidAngle(i, j, n);
+      }
+  EXPECT_LT((taken - e).norm(), 1e-5 * e.norm()) << "the sun's irradiance, all of it and nothing more";
+  // The daylight model's fitted sun alone (no irradiance solved), a malformed entry, no entry: no sun, no change.
+  Image untouched;
+  EXPECT_FALSE(SolvedSun(Json{{"sun", {{"direction_world", {0, 0, 1}}, {"irradiance_share", 0.7}}}}, oct, &untouched));
+  EXPECT_FALSE(SolvedSun(Json{{"sun", {{"direction_world", {0, 0, 1}}, {"irradiance_rgb", {1, 2}}}}}, oct, &untouched));
+  EXPECT_FALSE(
+      SolvedSun(Json{{"sun", {{"direction_world", {0, 0, 0}}, {"irradiance_rgb", {1, 2, 3}}}}}, oct, &untouched));
+  EXPECT_FALSE(
+      SolvedSun(Json{{"sun", {{"direction_world", {0, 0, 1}}, {"irradiance_rgb", {1, -2, 3}}}}}, oct, &untouched));
+  EXPECT_FALSE(SolvedSun(Json::object(), oct, &untouched));
+  EXPECT_EQ(untouched.width, 0);
+}
+
 TEST(Views, OrbitCameraFramesTheBoundingSphere) {
   const Eigen::Vector3d center(1, 2, 3);
   const double radius = 0.5, fov = 40, fill = 0.8;

@@ -69,6 +69,7 @@ void ApplyGauge(const Eigen::Vector3d& s, LightingState* l, ReflectanceState* r)
   for (auto& photo : l->values)
     for (int c = 0; c < 3; ++c)
       for (float& v : photo[c]) v = static_cast<float>(v * s[c]);
+  for (Eigen::Vector3d& e : l->sun_irradiance) e = e.cwiseProduct(s);
   l->UpdateCoefficients();
   for (auto& coeff : r->coefficients) coeff = coeff.cwiseQuotient(s);
   r->occluder_albedo = r->occluder_albedo.cwiseQuotient(s);
@@ -98,6 +99,12 @@ void Extrapolate(const LightingState& prev_l, const ReflectanceState& prev_r, do
         if (l->basis == "haar") v = std::max(0.0f, v);
         l->values[i][c][k] = v;
       }
+  // A sun split out at the same direction in both moves with its map; otherwise it keeps the current step's.
+  for (size_t i = 0; i < l->sun_irradiance.size() && i < prev_l.sun_irradiance.size(); ++i) {
+    if (!l->has_sun(i) || !prev_l.has_sun(i) || l->sun_dir_world[i] != prev_l.sun_dir_world[i]) continue;
+    l->sun_irradiance[i] =
+        (prev_l.sun_irradiance[i] + step * (l->sun_irradiance[i] - prev_l.sun_irradiance[i])).cwiseMax(0.0);
+  }
   l->UpdateCoefficients();
   for (size_t k = 0; k < r->coefficients.size(); ++k)
     r->coefficients[k] = (prev_r.coefficients[k] + step * (r->coefficients[k] - prev_r.coefficients[k])).cwiseMax(0.0);
@@ -915,7 +922,21 @@ Json WritePhotoLighting(const InverseOptions& o, const ObservedPhoto& photo, con
   const std::string stem = fs::path(photo.name).stem().string();
   const std::vector<float> rgb = result.lighting.OctahedralRgb(static_cast<int>(photo.index), n_out);
   Image oct(n_out, n_out, 3);
-  for (size_t k = 0; k < rgb.size(); ++k) oct.pixels[k] = std::max(0.0f, rgb[k]);
+  for (size_t k = 0; k < rgb.size(); ++k) oct.pixels[k] = rgb[k];
+  const LightingState& lighting = result.lighting;
+  const bool solved_sun = lighting.basis == "haar" && n_out == lighting.env_resolution && lighting.has_sun(photo.index);
+  if (solved_sun) {
+    // A sun solved as its own light is held as its bilinear splat, the transport's view of a delta; the
+    // exported map, like a photographed map averaged over texels, has it in the one texel around its direction.
+    const Eigen::Vector3d& d = lighting.sun_dir_world[photo.index];
+    const Eigen::Vector3d& e = lighting.sun_irradiance[photo.index];
+    for (const auto& [k, v] : SunSplat(d, n_out))
+      for (int c = 0; c < 3; ++c) oct.pixels[size_t(k) * 3 + c] -= static_cast<float>(e[c] * v);
+    const Eigen::Vector2i t = OctTexelOf(d, n_out);
+    const double omega = OctTexelSolidAngle(t.x(), t.y(), n_out);
+    for (int c = 0; c < 3; ++c) oct.at(t.x(), t.y(), c) += static_cast<float>(e[c] / omega);
+  }
+  for (float& v : oct.pixels) v = std::max(0.0f, v);
   WriteImage(JoinPath(output_dir, "envmaps/" + stem + "_oct.exr"), oct, {PixelType::kFloat});
   const EnvMap env = EnvMap::FromOctahedral(oct);
   WriteImage(JoinPath(output_dir, "envmaps/" + stem + "_latlong.exr"), env.ToLatLong(std::max(32, 2 * n_out), 0),
@@ -940,6 +961,13 @@ Json WritePhotoLighting(const InverseOptions& o, const ObservedPhoto& photo, con
     const double detail = ResolvedDetailDegrees(m, o.lighting_basis);
     entry["resolved_detail_deg"] = detail > 0 ? Json(detail) : Json();
     if (m.data_share.size() == size_t(n_out) * n_out) WriteDataShare(m, oct, n_out, stem, output_dir, &entry);
+    if (solved_sun) {
+      const Eigen::Vector3d& d = lighting.sun_dir_world[photo.index];
+      const Eigen::Vector3d& e = lighting.sun_irradiance[photo.index];
+      entry["sun"]["direction_world"] = {d.x(), d.y(), d.z()};
+      entry["sun"]["elevation_deg"] = std::asin(std::clamp(d.z(), -1.0, 1.0)) * 180.0 / M_PI;
+      entry["sun"]["irradiance_rgb"] = {e.x(), e.y(), e.z()};
+    }
     stats->determined.push_back(m.dof);
     if (detail > 0) stats->resolved_detail.push_back(detail);
   }

@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 16};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 17};
 
 struct InverseOptions {
   // Lighting representation.
@@ -168,8 +168,9 @@ struct InverseOptions {
         .Advanced();
     t->Add("light_prior", &light_prior,
            "What fills the directions the photos say little about: natural (a fitted daylight model: "
-           "sky, sun, a ground lit by them) or smooth (a flat fill from the seen directions). Choose "
-           "smooth for indoor, studio or lab light.")
+           "sky, sun, a ground lit by them; under a clear sky the sun is solved as a light of its own, "
+           "sharper than a texel) or smooth (a flat fill from the seen directions). Choose smooth for "
+           "indoor, studio or lab light.")
         .Choices({"natural", "smooth"})
         .OnlyWhen("lighting_basis", {"haar"});
     t->Add("wavelet_sparsity", &wavelet_sparsity,

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/timer.h"
+#include "image/color.h"
 #include "solver/natural_light.h"
 #include "solver/qp.h"
 #include "sphere/octahedral.h"
@@ -52,6 +53,31 @@ std::vector<double> RobustWeights(const std::vector<double>& residuals, const st
     w[k] = loss == "huber" ? (r <= 1 ? 1.0 : 1.0 / r) : 1.0 / (1.0 + r * r);
   }
   return w;
+}
+
+std::vector<std::pair<int, double>> SunSplat(const Eigen::Vector3d& dir_world, int n) {
+  const Eigen::Vector2d st = OctEncode(dir_world);
+  const double u = st.x() * n - 0.5, v = st.y() * n - 0.5;
+  const int i0 = static_cast<int>(std::floor(u)), j0 = static_cast<int>(std::floor(v));
+  const double fu = u - i0, fv = v - j0;
+  std::vector<std::pair<int, double>> out;
+  for (int b = 0; b <= 1; ++b)
+    for (int a = 0; a <= 1; ++a) {
+      const double w = (a ? fu : 1 - fu) * (b ? fv : 1 - fv);
+      if (w <= 0) continue;
+      // One step past a border is the neighbour across the fold; past a corner, fold twice.
+      Eigen::Vector2i t = OctWrapTexel(i0 + a, j0 + b, n);
+      t = OctWrapTexel(t.x(), t.y(), n);
+      const int k = t.y() * n + t.x();
+      const double value = w / OctTexelSolidAngle(t.x(), t.y(), n);
+      auto it = std::find_if(out.begin(), out.end(), [&](const auto& e) { return e.first == k; });
+      if (it != out.end()) {
+        it->second += value;
+      } else {
+        out.push_back({k, value});
+      }
+    }
+  return out;
 }
 
 namespace {
@@ -202,6 +228,50 @@ PhotoSystem AssemblePhotoSystem(const TransportStore& transport, const Observati
   return sys;
 }
 
+// Mean of a texel's four neighbours on an n×n octahedral map (fold rule).
+double NeighbourMean(const Eigen::VectorXd& x, int k, int n) {
+  const int i = k % n, j = k / n;
+  const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+  double sum = 0;
+  for (int q = 0; q < 4; ++q) {
+    const Eigen::Vector2i t = OctWrapTexel(i + di[q], j + dj[q], n);
+    sum += x[t.y() * n + t.x()];
+  }
+  return sum / 4;
+}
+
+// The direction of a map's brightest lobe: the brightest texel's 3×3 neighbourhood, each texel weighted by its
+// luminance above the median of the ring around it (times its solid angle).
+Eigen::Vector3d BrightestLobeDirection(const std::array<Eigen::VectorXd, 3>& map, int n) {
+  auto luminance = [&](int k) { return Luminance(Eigen::Vector3d(map[0][k], map[1][k], map[2][k])); };
+  int peak = 0;
+  for (int k = 1; k < n * n; ++k)
+    if (luminance(k) > luminance(peak)) peak = k;
+  const int pi = peak % n, pj = peak / n;
+  auto texel = [&](int di, int dj) {
+    Eigen::Vector2i t = OctWrapTexel(pi + di, pj + dj, n);
+    t = OctWrapTexel(t.x(), t.y(), n);
+    return t;
+  };
+  std::vector<double> ring;
+  for (int dj = -2; dj <= 2; ++dj)
+    for (int di = -2; di <= 2; ++di)
+      if (std::max(std::abs(di), std::abs(dj)) == 2) {
+        const Eigen::Vector2i t = texel(di, dj);
+        ring.push_back(luminance(t.y() * n + t.x()));
+      }
+  std::nth_element(ring.begin(), ring.begin() + ring.size() / 2, ring.end());
+  const double level = ring[ring.size() / 2];
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int dj = -1; dj <= 1; ++dj)
+    for (int di = -1; di <= 1; ++di) {
+      const Eigen::Vector2i t = texel(di, dj);
+      const double w = std::max(0.0, luminance(t.y() * n + t.x()) - level) * OctTexelSolidAngle(t.x(), t.y(), n);
+      sum += w * OctTexelDirection(t.x(), t.y(), n);
+    }
+  return sum.norm() > 0 ? Eigen::Vector3d(sum.normalized()) : OctTexelDirection(pi, pj, n);
+}
+
 // The natural-light prior's pull of every texel towards the daylight model, relative to the Laplacian's
 // weight (whose Gram has about 20 on its diagonal): weak beside any observation, decisive where there is none.
 constexpr double kNaturalLightPull = 1.0;
@@ -229,6 +299,8 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
   const int block = n_full / n;  // fine texels per coarse texel side
   const int dim = haar ? n * n : lighting->dim;
   const int num_photos = static_cast<int>(subset.size());
+  lighting->sun_dir_world.resize(lighting->values.size(), Eigen::Vector3d::UnitZ());
+  lighting->sun_irradiance.resize(lighting->values.size(), Eigen::Vector3d::Zero());
   LightingStepResult result;
   result.photo_rmse.assign(num_photos, 0.0);
   result.qp_iterations.assign(num_photos, 0);
@@ -273,22 +345,35 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
       *q = Eigen::MatrixXd(qf.cast<double>().selfadjointView<Eigen::Lower>());
       *rhs = (aw.transpose() * yw).cast<double>();
     };
-    for (int pass = 0; pass < options.irls_iterations; ++pass) {
+    // One pass more when the map turns out a clear sky without its sun split out yet (the split starts from a map).
+    int passes = options.irls_iterations;
+    for (int pass = 0; pass < passes; ++pass) {
       std::vector<double> residual(rows, 0.0);
       double sse = 0, wsum = 0;
-      // Warm start: the current map, block-averaged to the solve resolution.
+      // Warm start: the current map, block-averaged to the solve resolution, the last step's sun (if any) taken
+      // out (it starts its own variable).
       std::array<Eigen::VectorXd, 3> start;
+      std::array<double, 3> sun_start{0, 0, 0};
+      const bool had_sun = lighting->has_sun(i);
+      const std::vector<std::pair<int, double>> old_splat =
+          had_sun ? SunSplat(lighting->sun_dir_world[i], n_full) : std::vector<std::pair<int, double>>();
       for (int c = 0; c < 3; ++c) {
+        Eigen::VectorXd full =
+            Eigen::Map<const Eigen::VectorXf>(lighting->values[i][c].data(), n_full * n_full).cast<double>();
+        if (had_sun) {
+          sun_start[c] = lighting->sun_irradiance[i][c];
+          for (const auto& [k, v] : old_splat) full[k] = std::max(0.0, full[k] - sun_start[c] * v);
+        }
         Eigen::VectorXd& x = start[c];
         x.resize(dim);
         if (block == 1) {
-          x = Eigen::Map<const Eigen::VectorXf>(lighting->values[i][c].data(), dim).cast<double>();
+          x = full;
         } else {
           for (int k = 0; k < dim; ++k) {
             double sum = 0;
             const int i0 = (k % n) * block, j0 = (k / n) * block;
             for (int dj = 0; dj < block; ++dj)
-              for (int di = 0; di < block; ++di) sum += lighting->values[i][c][(j0 + dj) * n_full + i0 + di];
+              for (int di = 0; di < block; ++di) sum += full[(j0 + dj) * n_full + i0 + di];
             x[k] = sum / (block * block);
           }
         }
@@ -305,17 +390,51 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
       // the photos determine of the current map (each texel weighted by the photos' share of its curvature),
       // and a weak pull towards the model fills the directions no observation sees with its sky and ground.
       const bool natural = haar && options.light_prior == "natural";
+      // The whole map, the warm start's sun put back as the rows see it (its splat): where the sun's direction is
+      // read, and the start when the sun is not split out this time. The daylight model is fitted to the map as
+      // it is exported, the sun in the one texel around its direction, as the model's sun term describes it.
+      std::array<Eigen::VectorXd, 3> whole = start, exported = start;
+      if (had_sun) {
+        for (const auto& [k, v] : SunSplat(lighting->sun_dir_world[i], n))
+          for (int c = 0; c < 3; ++c) whole[c][k] += sun_start[c] * v;
+        const Eigen::Vector2i t = OctTexelOf(lighting->sun_dir_world[i], n);
+        const double omega = OctTexelSolidAngle(t.x(), t.y(), n);
+        for (int c = 0; c < 3; ++c) exported[c][t.y() * n + t.x()] += sun_start[c] / omega;
+      }
       std::array<Eigen::VectorXd, 3> model_map;
+      // The sun as its own variable (see the header): its splat at the solve resolution, per unit irradiance.
+      bool split_sun = false;
+      Eigen::Vector3d sun_dir = Eigen::Vector3d::UnitZ();
+      std::vector<std::pair<int, double>> splat;
+      std::vector<double> share(dim, 0.0);
+      auto clear_sky = [&](const NaturalLight& model) {
+        // At the maps' own resolution only: a coarse solve's texels are too wide to tell a disc from an aureole.
+        return block == 1 && model.explained_variation >= kSunSplitExplained &&
+               model.sun_irradiance_share >= kSunSplitShare && model.sun_disc_share >= kSunSplitDiscShare;
+      };
       if (natural) {
-        std::vector<double> share(dim, 0.0);
         for (int c = 0; c < 3; ++c) {
           const double lambda_c = options.smoothness * std::max(1e-30, diagonal[c].maxCoeff());
           for (int k = 0; k < dim; ++k)
             share[k] += diagonal[c][k] / (diagonal[c][k] + lambda_c * regularizer(k, k)) / 3.0;
         }
-        const NaturalLight model = FitNaturalLight({start[0].data(), start[1].data(), start[2].data()}, share, n);
+        NaturalLight model = FitNaturalLight({exported[0].data(), exported[1].data(), exported[2].data()}, share, n);
+        // A clear sky's sun (most of the model's light from the sun, most of that from its disc): the sun,
+        // where the map's light concentrates, becomes its own variable.
+        if (clear_sky(model)) {
+          split_sun = true;
+          sun_dir = BrightestLobeDirection(whole, n);
+          splat = SunSplat(sun_dir, n);
+          // The prior's model without its sun: the sun is the variable's, the priors hold the sky.
+          for (int c = 0; c < 3; ++c) model.coefficients[c][3] = 0;
+        }
         std::array<std::vector<double>, 3> m = model.Octahedral(n);
         for (int c = 0; c < 3; ++c) model_map[c] = Eigen::Map<const Eigen::VectorXd>(m[c].data(), dim);
+      }
+      if (!split_sun) {
+        lighting->sun_irradiance[i].setZero();
+        start = whole;
+        sun_start = {0, 0, 0};
       }
       // Group-sparse Haar prior, reweighted from the warm start (IRLS on the L1 norm).
       Eigen::MatrixXd sparsity_penalty;
@@ -330,9 +449,28 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
       }
       for (int c = 0; c < 3; ++c) {
         Eigen::VectorXd x = start[c];
+        // The sun's irradiance; without a sun last step, the warm start's excess at the sun over the map's
+        // level around it.
+        double sun = sun_start[c];
+        if (split_sun && !had_sun) {
+          double excess = 0;
+          for (const auto& [k, v] : splat) {
+            const double level = NeighbourMean(x, k, n);
+            excess += std::max(0.0, x[k] - level) / v / splat.size();
+            x[k] = std::min(x[k], level);
+          }
+          sun = excess;
+        }
+        // Map plus sun as the rows see them.
+        auto with_sun = [&](const Eigen::VectorXd& sky) {
+          Eigen::VectorXd total = sky;
+          for (const auto& [k, v] : splat) total[k] += sun * v;
+          return total;
+        };
         Eigen::MatrixXd q_exact;
         Eigen::VectorXd rhs_exact;
         accumulate(c, exact_rows[c], &q_exact, &rhs_exact);
+        const Eigen::VectorXd rhs_data_exact = rhs_exact;
         const double diagonal_max = std::max(1e-30, diagonal[c].maxCoeff());
         const double lambda = options.smoothness * diagonal_max;
         const double model_pull = natural ? kNaturalLightPull * lambda : 0.0;
@@ -348,7 +486,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         for (int round = 0; round < (bound_rows[c].empty() ? 1 : kMaxBoundRounds); ++round) {
           std::vector<Eigen::Index> missed;
           if (!bound_rows[c].empty()) {
-            const Eigen::VectorXf xf = x.cast<float>();
+            const Eigen::VectorXf xf = (split_sun ? with_sun(x) : x).cast<float>();
             for (Eigen::Index r : bound_rows[c])
               if (a[c].row(r).dot(xf) < y[c][r]) missed.push_back(r);
             if (round > 0 && missed == active) break;
@@ -356,19 +494,48 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
           }
           Eigen::MatrixXd q_mat = q_exact;
           Eigen::VectorXd rhs = rhs_exact;
+          Eigen::VectorXd rhs_data = rhs_data_exact;
           if (!active.empty()) {
             Eigen::MatrixXd q_active;
             Eigen::VectorXd rhs_active;
             accumulate(c, active, &q_active, &rhs_active);
             q_mat += q_active;
             rhs += rhs_active;
+            rhs_data += rhs_active;
+          }
+          // The sun's column and diagonal in the data term (H s, sᵀ H s, sᵀ b for the splat vector s).
+          Eigen::VectorXd sun_column;
+          double sun_diagonal = 0, sun_rhs = 0;
+          if (split_sun) {
+            sun_column = Eigen::VectorXd::Zero(dim);
+            for (const auto& [k, v] : splat) {
+              sun_column += v * q_mat.col(k);
+              sun_rhs += v * rhs_data[k];
+            }
+            for (const auto& [k, v] : splat) sun_diagonal += v * sun_column[k];
           }
           q_mat += lambda * regularizer;
           if (model_pull > 0) q_mat.diagonal().array() += model_pull;
           if (sparsity_penalty.size() > 0) q_mat += (options.wavelet_sparsity * diagonal_max) * sparsity_penalty;
           // A vanishing ridge keeps texels no observation sees well-posed (they stay at the smooth fill-in).
           q_mat.diagonal().array() += 1e-9 * diagonal_max;
-          if (haar) {
+          if (split_sun) {
+            // The sky's QP bordered by the sun's variable (no prior on it).
+            Eigen::MatrixXd q_sun(dim + 1, dim + 1);
+            q_sun.topLeftCorner(dim, dim) = q_mat;
+            q_sun.col(dim).head(dim) = sun_column;
+            q_sun.row(dim).head(dim) = sun_column.transpose();
+            double splat_norm = 0;
+            for (const auto& [k, v] : splat) splat_norm += v * v;
+            q_sun(dim, dim) = sun_diagonal + 1e-9 * diagonal_max * splat_norm;
+            Eigen::VectorXd rhs_sun(dim + 1), x_sun(dim + 1);
+            rhs_sun << rhs, sun_rhs;
+            x_sun << x, sun;
+            const QpSummary qs = SolveNonNegativeQp(options.qp_solver, q_sun, rhs_sun, &x_sun);
+            result.qp_iterations[i] += qs.iterations;
+            x = x_sun.head(dim);
+            sun = x_sun[dim];
+          } else if (haar) {
             const QpSummary qs = SolveNonNegativeQp(options.qp_solver, q_mat, rhs, &x);
             result.qp_iterations[i] += qs.iterations;
           } else {
@@ -385,7 +552,12 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
             lighting->values[i][c][k] = static_cast<float>(x[coarse]);
           }
         }
-        const Eigen::VectorXf pred = a[c] * x.cast<float>();
+        if (split_sun) {  // the sun splatted at the full resolution, where the maps hold it
+          for (const auto& [k, v] : SunSplat(sun_dir, n_full)) lighting->values[i][c][k] += static_cast<float>(sun * v);
+          lighting->sun_dir_world[i] = sun_dir;
+          lighting->sun_irradiance[i][c] = sun;
+        }
+        const Eigen::VectorXf pred = a[c] * (split_sun ? with_sun(x) : x).cast<float>();
         for (Eigen::Index r = 0; r < rows; ++r) {
           double e = double(y[c][r]) - pred[r];
           if (lower[r * 3 + c] && e < 0) e = 0;  // a lower bound the prediction meets
@@ -395,7 +567,18 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         }
       }
       result.photo_rmse[i] = std::sqrt(sse / std::max(1e-30, wsum));
-      if (pass + 1 < options.irls_iterations) {
+      if (natural && !split_sun && pass + 1 == passes && passes == options.irls_iterations) {
+        std::array<std::vector<double>, 3> solved;
+        for (int c = 0; c < 3; ++c) {
+          solved[c].resize(dim);
+          for (int k = 0; k < dim; ++k) {  // the block's value (upsampled piecewise constant)
+            const int fine = ((k / n) * block) * n_full + (k % n) * block;
+            solved[c][k] = lighting->values[i][c][fine];
+          }
+        }
+        if (clear_sky(FitNaturalLight({solved[0].data(), solved[1].data(), solved[2].data()}, share, n))) ++passes;
+      }
+      if (pass + 1 < passes) {
         for (double& r : residual) r = std::sqrt(r);
         robust = RobustWeights(residual, options.robust_loss, options.robust_scale);
       }

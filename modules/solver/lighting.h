@@ -25,13 +25,27 @@
 
 namespace relight {
 
+// When the lighting step solves a photo's sun as its own light (SolveLighting): when the daylight model fitted to
+// the map (NaturalLight) describes it (explained_variation at least kSunSplitExplained), takes most of the
+// horizontal irradiance from its sun and aureole (sun_irradiance_share at least kSunSplitShare), and most of that
+// from the sun's disc, sharper than a texel, rather than from the aureole (sun_disc_share at least
+// kSunSplitDiscShare): a clear sky's sun, not a hazy one, a bright patch of cloud or light that is not daylight.
+inline constexpr double kSunSplitExplained = 0.85;
+inline constexpr double kSunSplitShare = 0.5;
+inline constexpr double kSunSplitDiscShare = 0.5;
+
 struct LightingStepResult {
   std::vector<double> photo_rmse;   // weighted RMSE over the lighting subset, per photo
   std::vector<int> qp_iterations;   // summed over channels and IRLS passes, per photo
   double seconds = 0;
 };
 
-// Solves every photo's map. `subset[i]` lists the observation indices of photo i to fit.
+// Solves every photo's map. With the daylight prior (light_prior natural, Haar) a photo whose fitted daylight
+// model has a clear sky's sun (kSunSplitExplained, kSunSplitShare, kSunSplitDiscShare) gets that sun as a variable of
+// its own: a delta at the direction of the map's brightest lobe (SunSplat), its RGB irradiance free of the priors,
+// which act on the rest of the map (the sky) only. A sun far smaller than a texel otherwise reaches the map as a lobe
+// the smoothness prior widens over several texels. The split is kept in `lighting` (sun_dir_world, sun_irradiance).
+// `subset[i]` lists the observation indices of photo i to fit.
 // `solve_resolution` (Haar only, a power of two <= env_resolution) restricts the
 // maps to piecewise-constant blocks of that resolution: in the non-standard Haar
 // layout the coarse levels are exactly the top-left block of the coefficients,
@@ -79,6 +93,12 @@ std::vector<MapResolution> LightingResolution(const TransportStore& transport, c
 // map's side, about sqrt(4π) / 2^(l+1) radians). 0 when not even the coarsest
 // level is (only the mean), and for SH.
 double ResolvedDetailDegrees(const MapResolution& m, const std::string& basis);
+
+// A sun as the maps hold it: a delta of irradiance E from direction d, in the bilinear reconstruction whose
+// control values the maps are, is E w_j(d) / ω_j on the (up to) four texels j around d (bilinear weights w_j,
+// texel solid angles ω_j): every vertex then receives the delta's light up to the transport's own filtering.
+// Lists (texel index j, w_j / ω_j) of an n×n map, texels merged where the fold rule joins them.
+std::vector<std::pair<int, double>> SunSplat(const Eigen::Vector3d& dir_world, int n);
 
 // Dense Δ^T Δ of the graph Laplacian of an n×n octahedral grid (4-neighbours across the folds).
 Eigen::MatrixXd OctahedralLaplacianGram(int n);

@@ -36,6 +36,8 @@ void LightingState::Resize(int num_photos) {
   dim = basis == "haar" ? env_resolution * env_resolution : ShNumCoefficients(sh_order);
   values.assign(num_photos, {});
   coefficients.assign(num_photos, {});
+  sun_dir_world.assign(num_photos, Eigen::Vector3d::UnitZ());
+  sun_irradiance.assign(num_photos, Eigen::Vector3d::Zero());
   for (int i = 0; i < num_photos; ++i)
     for (int c = 0; c < 3; ++c) {
       values[i][c].assign(dim, 0.0f);

@@ -44,8 +44,14 @@ struct LightingState {
   // Per photo and channel: coefficients in the transport rows' basis (Haar of
   // `values`, or the SH coefficients themselves). Refresh with UpdateCoefficients().
   std::vector<std::array<std::vector<float>, 3>> coefficients;
+  // Per photo: the sun the lighting step solved as its own light (solver/lighting.h, SunSplat), a delta of
+  // irradiance `sun_irradiance` (RGB, the maps' radiance times steradians) from `sun_dir_world`; `values` holds
+  // it as its bilinear splat. Zero irradiance: no sun was split out of the photo's map.
+  std::vector<Eigen::Vector3d> sun_dir_world;
+  std::vector<Eigen::Vector3d> sun_irradiance;
 
   void Resize(int num_photos);
+  bool has_sun(size_t photo) const { return photo < sun_irradiance.size() && sun_irradiance[photo].maxCoeff() > 0; }
   void UpdateCoefficients();
   // Octahedral N×N RGB radiance image of a photo's map (SH evaluated at texel centres).
   std::vector<float> OctahedralRgb(int photo, int n) const;

@@ -94,13 +94,15 @@ Candidate FitAtSun(const std::vector<Texel>& texels, const std::vector<Texel>& s
   }
   out.cost = cost;
   out.model.weighted_rms = std::sqrt(std::max(0.0, cost) / std::max(1e-30, 3 * weight_sum));
-  double sun_part = 0, total = 0;
+  double sun_part = 0, disc = 0, total = 0;
   for (int c = 0; c < 3; ++c) {
     const Terms e = irradiance.cwiseProduct(out.model.coefficients[c]);
     sun_part += e[3] + e[4];
+    disc += e[3];
     total += e.sum();
   }
   out.model.sun_irradiance_share = total > 0 ? sun_part / total : 0.0;
+  out.model.sun_disc_share = sun_part > 0 ? disc / sun_part : 0.0;
   return out;
 }
 

@@ -42,6 +42,9 @@ struct NaturalLight {
   // between walls), for which the daylight prior is the wrong fill (inverse.light_prior smooth).
   double explained_variation = 0;
   double sun_irradiance_share = 0;  // share of the horizontal irradiance from the sun and circumsolar terms
+  // Share of the sun and circumsolar terms' horizontal irradiance from the sun term: above a half for a sun
+  // sharper than a texel, below for a hazy sun or a bright patch of cloud, whose light spreads over the aureole.
+  double sun_disc_share = 0;
 
   // Radiance (RGB) in a world direction.
   Eigen::Vector3d Radiance(const Eigen::Vector3d& dir_world) const;

@@ -109,6 +109,42 @@ TEST_F(SolverTest, KnownReflectanceRecoversLighting) {
   }
 }
 
+// A sun far smaller than a texel (a delta, held as its splat) under a clear sky: with the stage's priors the
+// lighting step solves it as its own light, at its direction and with its irradiance, where the smoothness
+// prior would widen it over the texels around it.
+TEST_F(SolverTest, SunBelowATexelIsSolvedAsItsOwnLight) {
+  const std::vector<std::string> basis = {"lambertian", "phong:50"};
+  SyntheticProblemOptions so;
+  so.basis = basis;
+  so.env_resolution = kEnv;
+  so.point_sun_irradiance = 6.0;
+  const SyntheticProblem s = MakeSyntheticProblem(so);
+  InverseOptions o = BaseOptions(basis);
+  o.fixed_reflectance = true;
+  o.holdout_fraction = 0;
+  // Ten lighting steps, as an alternation makes them: each starts the sun from the last step's split.
+  o.irls_iterations = 10;
+  o.smoothness = InverseOptions().smoothness;  // the stage's prior, which spreads a sun left in the texels
+  ASSERT_EQ(o.light_prior, "natural");
+  const InverseResult r = SolveInverse(s.problem, o, &s.truth);
+  const double texel_deg = std::sqrt(4 * M_PI) / kEnv * 180 / M_PI;
+  double mean_irradiance = 0;
+  for (size_t i = 0; i < s.sun_dirs_world.size(); ++i) {
+    ASSERT_TRUE(r.lighting.has_sun(i)) << "photo " << i;
+    const double deg =
+        std::acos(std::clamp(r.lighting.sun_dir_world[i].dot(s.sun_dirs_world[i]), -1.0, 1.0)) * 180 / M_PI;
+    EXPECT_LT(deg, 0.25 * texel_deg) << "photo " << i;
+    // Every sun within 40 % (a low one, 17° up, leaves up to a third of its light to the sky texels around it),
+    // their mean within 10 %.
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(r.lighting.sun_irradiance[i][c], 6.0, 2.4) << "photo " << i << " channel " << c;
+      mean_irradiance += r.lighting.sun_irradiance[i][c] / (3.0 * s.sun_dirs_world.size());
+    }
+  }
+  EXPECT_NEAR(mean_irradiance, 6.0, 0.6);
+  EXPECT_LT(r.summary.iterations.back().train_rmse, 2e-3);
+}
+
 // Scale-invariant diffuse-albedo PSNR (dB) of every vertex, per channel after the best scale.
 double AlbedoPsnr(const Scene& s, const ReflectanceState& estimate) {
   const ReflectanceModel truth = s.truth.reflectance.Model(), est = estimate.Model();
@@ -1157,6 +1193,36 @@ TEST_F(SolverTest, WaveletSparsityRecoversNoisyLightingBetter) {
 // The lighting step's sparsity prior: as a quadratic form at the map it was reweighted from, the
 // penalty is the group-L1 norm of the map's wavelet coefficients (times the mean radiance), the mean
 // itself is free, and a coefficient below the floor is held by the floor.
+// The splat of a delta sun holds its irradiance (Σ_j (w_j / ω_j) ω_j = 1) around its direction: the texels'
+// centres, weighted by their share, average to within a third of a texel of it, also across the folds (where the
+// octahedral map bends, the bilinear weights' centre moves off the direction by up to about 0.3 texel).
+TEST(LightingPriorTest, SunSplatHoldsTheSunsIrradianceAtItsDirection) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g;
+  for (int n : {16, 32}) {
+    const double texel_rad = std::sqrt(4 * M_PI) / n;
+    std::vector<Eigen::Vector3d> dirs = {{0, 0, 1}, {1, 0, 0}, {0, 0, -1}, Eigen::Vector3d(1, 1, -1e-3).normalized()};
+    for (int k = 0; k < 200; ++k) dirs.push_back(Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized());
+    for (const Eigen::Vector3d& d : dirs) {
+      const std::vector<std::pair<int, double>> splat = SunSplat(d, n);
+      ASSERT_FALSE(splat.empty());
+      ASSERT_LE(splat.size(), 4u);
+      double irradiance = 0;
+      Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+      for (const auto& [k, v] : splat) {
+        ASSERT_GE(k, 0);
+        ASSERT_LT(k, n * n);
+        EXPECT_GT(v, 0);
+        const double share = v * OctTexelSolidAngle(k % n, k / n, n);
+        irradiance += share;
+        centre += share * OctTexelDirection(k % n, k / n, n);
+      }
+      EXPECT_NEAR(irradiance, 1.0, 1e-12) << d.transpose();
+      EXPECT_LT(std::acos(std::clamp(centre.normalized().dot(d), -1.0, 1.0)), 0.35 * texel_rad) << d.transpose();
+    }
+  }
+}
+
 TEST(LightingPriorTest, HaarL1PenaltyIsTheGroupL1NormOfTheWaveletCoefficients) {
   const int n = 8, dim = n * n;
   std::mt19937 rng(3);

@@ -9,6 +9,7 @@
 #include "geometry/primitives.h"
 #include "geometry/raycaster.h"
 #include "solver/interreflection.h"
+#include "solver/lighting.h"
 #include "solver/lobe_spec.h"
 #include "sphere/frame.h"
 #include "sphere/octahedral.h"
@@ -18,10 +19,11 @@
 namespace relight {
 namespace {
 
-// Sky gradient plus a sun blob, RGB radiance.
-Eigen::Vector3d SkyAndSun(const Eigen::Vector3d& d, const Eigen::Vector3d& sun) {
+// Sky gradient plus (with `lobe`) a sun blob 0.2 rad wide, RGB radiance.
+Eigen::Vector3d SkyAndSun(const Eigen::Vector3d& d, const Eigen::Vector3d& sun, bool lobe) {
   const double up = std::max(0.0, d.z());
   Eigen::Vector3d sky = Eigen::Vector3d(0.3, 0.4, 0.6) * (0.3 + 0.7 * up) + Eigen::Vector3d::Constant(0.05);
+  if (!lobe) return sky;
   const double a = std::acos(std::clamp(d.dot(sun), -1.0, 1.0));
   sky += Eigen::Vector3d(6.0, 5.5, 4.5) * std::exp(-a * a / (2 * 0.2 * 0.2));
   return sky;
@@ -154,8 +156,13 @@ SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
         Eigen::Vector3d(std::cos(sun_el) * std::cos(sun_az), std::cos(sun_el) * std::sin(sun_az), std::sin(sun_el)));
     std::vector<float> oct(size_t(env) * env * 3);
     for (int k = 0; k < env * env; ++k) {
-      const Eigen::Vector3d rgb = SkyAndSun(OctTexelDirection(k % env, k / env, env), s.sun_dirs_world.back());
+      const Eigen::Vector3d rgb =
+          SkyAndSun(OctTexelDirection(k % env, k / env, env), s.sun_dirs_world.back(), o.point_sun_irradiance <= 0);
       for (int c = 0; c < 3; ++c) oct[k * 3 + c] = static_cast<float>(rgb[c]);
+    }
+    if (o.point_sun_irradiance > 0) {
+      for (const auto& [k, v] : SunSplat(s.sun_dirs_world.back(), env))
+        for (int c = 0; c < 3; ++c) oct[k * 3 + c] += static_cast<float>(o.point_sun_irradiance * v);
     }
     s.truth.lighting_oct_rgb.push_back(oct);
     ObservedPhoto p;

@@ -33,6 +33,9 @@ struct SyntheticProblemOptions {
   // Measurements carry one bounce (IndirectLight): between the object's vertices, and from the ground of
   // albedo `ground_albedo` (> 0; then the ground is a finer grid, 64×64 cells, so that it has vertices under the
   // object to bounce from).
+  // > 0: each photo's sun is a delta of this irradiance (white, along the sun direction) instead of the 0.2 rad
+  // wide lobe, held in the maps as its bilinear splat (solver/lighting.h, SunSplat): a sun below a texel in size.
+  double point_sun_irradiance = 0;
   bool interreflection = false;
   double ground_albedo = 0;
   int seed = 1;
