@@ -23,6 +23,7 @@
 #include "core/json.h"
 #include "datasets/light_evaluation.h"
 #include "image/image.h"
+#include "sphere/envmap.h"
 #include "sphere/octahedral.h"
 
 namespace relight {

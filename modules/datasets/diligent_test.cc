@@ -6,10 +6,11 @@
 #include <fstream>
 
 #include "core/error.h"
+#include "datasets/light_evaluation.h"
 #include "geometry/mesh_io.h"
 #include "geometry/reconstruction.h"
 #include "image/image.h"
-#include "datasets/light_evaluation.h"
+#include "sphere/envmap.h"
 #include "sphere/octahedral.h"
 #include "testing/testing.h"
 

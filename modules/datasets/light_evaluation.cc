@@ -3,20 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <queue>
 
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
 #include "core/stats.h"
 #include "image/color.h"
+#include "sphere/envmap.h"
 #include "sphere/octahedral.h"
 
 namespace relight {
 namespace {
-double Lum(const Image& img, int i, int j) {
-  return Luminance(img.at(i, j, 0), img.at(i, j, 1), img.at(i, j, 2));
-}
 double Pearson(const std::vector<double>& a, const std::vector<double>& b) {
   const size_t n = a.size();
   double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
@@ -32,38 +29,6 @@ double Pearson(const std::vector<double>& a, const std::vector<double>& b) {
   return va > 0 && vb > 0 ? cov / std::sqrt(va * vb) : 0.0;
 }
 }  // namespace
-
-Eigen::Vector3d BrightestLobeDirection(const Image& oct, double threshold_fraction) {
-  const int n = oct.width;
-  RELIGHT_CHECK(oct.height == n && IsPowerOfTwo(n));
-  int bi = 0, bj = 0;
-  double peak = -1;
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i)
-      if (Lum(oct, i, j) > peak) {
-        peak = Lum(oct, i, j);
-        bi = i;
-        bj = j;
-      }
-  std::vector<char> in(size_t(n) * n, 0);
-  std::queue<std::pair<int, int>> q;
-  q.push({bi, bj});
-  in[bj * n + bi] = 1;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  while (!q.empty()) {
-    const auto [i, j] = q.front();
-    q.pop();
-    sum += Lum(oct, i, j) * OctTexelSolidAngle(i, j, n) * OctTexelDirection(i, j, n);
-    const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector2i t = OctWrapTexel(i + di[k], j + dj[k], n);
-      if (in[t.y() * n + t.x()] || Lum(oct, t.x(), t.y()) < threshold_fraction * peak) continue;
-      in[t.y() * n + t.x()] = 1;
-      q.push({t.x(), t.y()});
-    }
-  }
-  return sum.norm() > 0 ? Eigen::Vector3d(sum.normalized()) : OctTexelDirection(bi, bj, n);
-}
 
 Eigen::Vector3d OctahedralPower(const Image& oct) {
   Eigen::Vector3d p = Eigen::Vector3d::Zero();

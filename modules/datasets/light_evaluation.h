@@ -15,8 +15,6 @@
 
 namespace relight {
 
-// Brightest-lobe direction of an octahedral RGB map (world frame).
-Eigen::Vector3d BrightestLobeDirection(const Image& octahedral, double threshold_fraction = 0.5);
 // ∫ L dω per channel of an octahedral RGB map (texel solid angles).
 Eigen::Vector3d OctahedralPower(const Image& octahedral);
 

@@ -29,6 +29,7 @@
 #include "relight/views.h"
 #include "render/test_scenes.h"
 #include "solver/synthetic_problem.h"
+#include "sphere/envmap.h"
 #include "sphere/octahedral.h"
 #include "sphere/sky.h"
 #include "testing/testing.h"

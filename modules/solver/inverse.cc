@@ -66,11 +66,7 @@ Eigen::Vector3d MeanAlbedo(const ReflectanceState& r, const std::vector<char>& o
 
 // Scales lighting channel c by s_c and materials by 1/s_c (the product is unchanged).
 void ApplyGauge(const Eigen::Vector3d& s, LightingState* l, ReflectanceState* r) {
-  for (auto& photo : l->values)
-    for (int c = 0; c < 3; ++c)
-      for (float& v : photo[c]) v = static_cast<float>(v * s[c]);
-  for (Eigen::Vector3d& e : l->sun_irradiance) e = e.cwiseProduct(s);
-  l->UpdateCoefficients();
+  l->ScaleChannels(s);
   for (auto& coeff : r->coefficients) coeff = coeff.cwiseQuotient(s);
   r->occluder_albedo = r->occluder_albedo.cwiseQuotient(s);
 }
@@ -91,21 +87,7 @@ Eigen::Vector3d GaugeScale(const std::string& gauge, const LightingState& l, con
 // θ = prev + step (cur − prev), clamped to the feasible set (non-negative).
 void Extrapolate(const LightingState& prev_l, const ReflectanceState& prev_r, double step, LightingState* l,
                  ReflectanceState* r) {
-  for (size_t i = 0; i < l->values.size(); ++i)
-    for (int c = 0; c < 3; ++c)
-      for (size_t k = 0; k < l->values[i][c].size(); ++k) {
-        const float p = prev_l.values[i][c][k];
-        float v = static_cast<float>(p + step * (l->values[i][c][k] - p));
-        if (l->basis == "haar") v = std::max(0.0f, v);
-        l->values[i][c][k] = v;
-      }
-  // A sun split out at the same direction in both moves with its map; otherwise it keeps the current step's.
-  for (size_t i = 0; i < l->sun_irradiance.size() && i < prev_l.sun_irradiance.size(); ++i) {
-    if (!l->has_sun(i) || !prev_l.has_sun(i) || l->sun_dir_world[i] != prev_l.sun_dir_world[i]) continue;
-    l->sun_irradiance[i] =
-        (prev_l.sun_irradiance[i] + step * (l->sun_irradiance[i] - prev_l.sun_irradiance[i])).cwiseMax(0.0);
-  }
-  l->UpdateCoefficients();
+  l->ExtrapolateFrom(prev_l, step);
   for (size_t k = 0; k < r->coefficients.size(); ++k)
     r->coefficients[k] = (prev_r.coefficients[k] + step * (r->coefficients[k] - prev_r.coefficients[k])).cwiseMax(0.0);
   for (size_t k = 0; k < r->weights.size(); ++k)

@@ -240,38 +240,6 @@ double NeighbourMean(const Eigen::VectorXd& x, int k, int n) {
   return sum / 4;
 }
 
-// The direction of a map's brightest lobe: the brightest texel's 3×3 neighbourhood, each texel weighted by its
-// luminance above the median of the ring around it (times its solid angle).
-Eigen::Vector3d BrightestLobeDirection(const std::array<Eigen::VectorXd, 3>& map, int n) {
-  auto luminance = [&](int k) { return Luminance(Eigen::Vector3d(map[0][k], map[1][k], map[2][k])); };
-  int peak = 0;
-  for (int k = 1; k < n * n; ++k)
-    if (luminance(k) > luminance(peak)) peak = k;
-  const int pi = peak % n, pj = peak / n;
-  auto texel = [&](int di, int dj) {
-    Eigen::Vector2i t = OctWrapTexel(pi + di, pj + dj, n);
-    t = OctWrapTexel(t.x(), t.y(), n);
-    return t;
-  };
-  std::vector<double> ring;
-  for (int dj = -2; dj <= 2; ++dj)
-    for (int di = -2; di <= 2; ++di)
-      if (std::max(std::abs(di), std::abs(dj)) == 2) {
-        const Eigen::Vector2i t = texel(di, dj);
-        ring.push_back(luminance(t.y() * n + t.x()));
-      }
-  std::nth_element(ring.begin(), ring.begin() + ring.size() / 2, ring.end());
-  const double level = ring[ring.size() / 2];
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (int dj = -1; dj <= 1; ++dj)
-    for (int di = -1; di <= 1; ++di) {
-      const Eigen::Vector2i t = texel(di, dj);
-      const double w = std::max(0.0, luminance(t.y() * n + t.x()) - level) * OctTexelSolidAngle(t.x(), t.y(), n);
-      sum += w * OctTexelDirection(t.x(), t.y(), n);
-    }
-  return sum.norm() > 0 ? Eigen::Vector3d(sum.normalized()) : OctTexelDirection(pi, pj, n);
-}
-
 // The natural-light prior's pull of every texel towards the daylight model, relative to the Laplacian's
 // weight (whose Gram has about 20 on its diagonal): weak beside any observation, decisive where there is none.
 constexpr double kNaturalLightPull = 1.0;
@@ -423,7 +391,10 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         // where the map's light concentrates, becomes its own variable.
         if (clear_sky(model)) {
           split_sun = true;
-          sun_dir = BrightestLobeDirection(whole, n);
+          std::vector<double> luminance(dim);
+          for (int k = 0; k < dim; ++k)
+            luminance[k] = Luminance(Eigen::Vector3d(whole[0][k], whole[1][k], whole[2][k]));
+          sun_dir = CompactLobeDirection(luminance, n);
           splat = SunSplat(sun_dir, n);
           // The prior's model without its sun: the sun is the variable's, the priors hold the sky.
           for (int c = 0; c < 3; ++c) model.coefficients[c][3] = 0;

@@ -42,7 +42,7 @@ struct LightingStepResult {
 
 // Solves every photo's map. With the daylight prior (light_prior natural, Haar) a photo whose fitted daylight
 // model has a clear sky's sun (kSunSplitExplained, kSunSplitShare, kSunSplitDiscShare) gets that sun as a variable of
-// its own: a delta at the direction of the map's brightest lobe (SunSplat), its RGB irradiance free of the priors,
+// its own: a delta at the map's CompactLobeDirection (SunSplat), its RGB irradiance free of the priors,
 // which act on the rest of the map (the sky) only. A sun far smaller than a texel otherwise reaches the map as a lobe
 // the smoothness prior widens over several texels. The split is kept in `lighting` (sun_dir_world, sun_irradiance).
 // `subset[i]` lists the observation indices of photo i to fit.

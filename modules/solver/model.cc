@@ -1,5 +1,7 @@
 #include "solver/model.h"
 
+#include <algorithm>
+
 #include "core/error.h"
 #include "sphere/octahedral.h"
 #include "sphere/sh.h"
@@ -55,6 +57,30 @@ void LightingState::UpdateCoefficients() {
       }
     }
   }
+}
+
+void LightingState::ScaleChannels(const Eigen::Vector3d& s) {
+  for (auto& photo : values)
+    for (int c = 0; c < 3; ++c)
+      for (float& v : photo[c]) v = static_cast<float>(v * s[c]);
+  for (Eigen::Vector3d& e : sun_irradiance) e = e.cwiseProduct(s);
+  UpdateCoefficients();
+}
+
+void LightingState::ExtrapolateFrom(const LightingState& prev, double step) {
+  for (size_t i = 0; i < values.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      for (size_t k = 0; k < values[i][c].size(); ++k) {
+        const float p = prev.values[i][c][k];
+        float v = static_cast<float>(p + step * (values[i][c][k] - p));
+        if (basis == "haar") v = std::max(0.0f, v);
+        values[i][c][k] = v;
+      }
+  for (size_t i = 0; i < sun_irradiance.size() && i < prev.sun_irradiance.size(); ++i) {
+    if (!has_sun(i) || !prev.has_sun(i) || sun_dir_world[i] != prev.sun_dir_world[i]) continue;
+    sun_irradiance[i] = (prev.sun_irradiance[i] + step * (sun_irradiance[i] - prev.sun_irradiance[i])).cwiseMax(0.0);
+  }
+  UpdateCoefficients();
 }
 
 std::vector<float> LightingState::OctahedralRgb(int photo, int n) const {

@@ -53,6 +53,11 @@ struct LightingState {
   void Resize(int num_photos);
   bool has_sun(size_t photo) const { return photo < sun_irradiance.size() && sun_irradiance[photo].maxCoeff() > 0; }
   void UpdateCoefficients();
+  // Scales channel c of every map and of every sun by s[c] (the solver's gauge); refreshes the coefficients.
+  void ScaleChannels(const Eigen::Vector3d& s);
+  // Moves to prev + step (this − prev), a Haar map clamped to non-negative values; a sun split out at the same
+  // direction in both moves with its map, otherwise this state's sun is kept. Refreshes the coefficients.
+  void ExtrapolateFrom(const LightingState& prev, double step);
   // Octahedral N×N RGB radiance image of a photo's map (SH evaluated at texel centres).
   std::vector<float> OctahedralRgb(int photo, int n) const;
 };

@@ -10,6 +10,18 @@
 #include "sphere/octahedral.h"
 
 namespace relight {
+
+Eigen::Vector3d BrightestLobeDirection(const Image& octahedral, double threshold_fraction) {
+  const int n = octahedral.width;
+  RELIGHT_CHECK(octahedral.height == n && IsPowerOfTwo(n) && octahedral.channels >= 3)
+      << "a square RGB octahedral image, got " << octahedral.width << "x" << octahedral.height << "x"
+      << octahedral.channels;
+  std::vector<double> luminance(size_t(n) * n);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      luminance[size_t(j) * n + i] = Luminance(octahedral.at(i, j, 0), octahedral.at(i, j, 1), octahedral.at(i, j, 2));
+  return BrightestLobeDirection(luminance, n, threshold_fraction);
+}
 namespace {
 
 Image ToRgb(Image image, const std::string& what) {

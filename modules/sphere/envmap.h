@@ -19,6 +19,9 @@
 
 namespace relight {
 
+// BrightestLobeDirection (sphere/octahedral.h) of a square octahedral RGB image, on its luminance.
+Eigen::Vector3d BrightestLobeDirection(const Image& octahedral, double threshold_fraction = 0.5);
+
 // An environment map: radiance as a function of the world direction it comes from.
 class EnvMap {
  public:

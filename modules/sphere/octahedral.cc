@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <queue>
 
 #include "core/error.h"
 
@@ -269,6 +270,58 @@ std::vector<Eigen::Vector3d> OctTexelDirections(int n) {
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) out[size_t(j) * n + i] = OctTexelDirection(i, j, n);
   return out;
+}
+
+Eigen::Vector3d BrightestLobeDirection(const std::vector<double>& luminance, int n, double threshold_fraction) {
+  RELIGHT_CHECK(IsPowerOfTwo(n) && luminance.size() == size_t(n) * n);
+  const int peak = int(std::max_element(luminance.begin(), luminance.end()) - luminance.begin());
+  const double level = threshold_fraction * luminance[peak];
+  std::vector<char> in(luminance.size(), 0);
+  std::queue<int> frontier;
+  frontier.push(peak);
+  in[peak] = 1;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  while (!frontier.empty()) {
+    const int k = frontier.front(), i = k % n, j = k / n;
+    frontier.pop();
+    sum += luminance[k] * OctTexelSolidAngle(i, j, n) * OctTexelDirection(i, j, n);
+    const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+    for (int e = 0; e < 4; ++e) {
+      const Eigen::Vector2i t = OctWrapTexel(i + di[e], j + dj[e], n);
+      const int m = t.y() * n + t.x();
+      if (in[m] || luminance[m] < level) continue;
+      in[m] = 1;
+      frontier.push(m);
+    }
+  }
+  return sum.norm() > 0 ? Eigen::Vector3d(sum.normalized()) : OctTexelDirection(peak % n, peak / n, n);
+}
+
+Eigen::Vector3d CompactLobeDirection(const std::vector<double>& luminance, int n) {
+  RELIGHT_CHECK(IsPowerOfTwo(n) && n >= 4 && luminance.size() == size_t(n) * n);
+  const int peak = int(std::max_element(luminance.begin(), luminance.end()) - luminance.begin());
+  const int pi = peak % n, pj = peak / n;
+  auto texel = [&](int di, int dj) {  // two wraps: a step of 2 beyond a corner folds twice
+    const Eigen::Vector2i t = OctWrapTexel(pi + di, pj + dj, n);
+    return OctWrapTexel(t.x(), t.y(), n);
+  };
+  std::vector<double> ring;
+  for (int dj = -2; dj <= 2; ++dj)
+    for (int di = -2; di <= 2; ++di)
+      if (std::max(std::abs(di), std::abs(dj)) == 2) {
+        const Eigen::Vector2i t = texel(di, dj);
+        ring.push_back(luminance[t.y() * n + t.x()]);
+      }
+  std::nth_element(ring.begin(), ring.begin() + ring.size() / 2, ring.end());
+  const double background = ring[ring.size() / 2];
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int dj = -1; dj <= 1; ++dj)
+    for (int di = -1; di <= 1; ++di) {
+      const Eigen::Vector2i t = texel(di, dj);
+      const double w = std::max(0.0, luminance[t.y() * n + t.x()] - background) * OctTexelSolidAngle(t.x(), t.y(), n);
+      sum += w * OctTexelDirection(t.x(), t.y(), n);
+    }
+  return sum.norm() > 0 ? Eigen::Vector3d(sum.normalized()) : OctTexelDirection(pi, pj, n);
 }
 
 std::vector<double> OctTexelSolidAngles(int n) {

@@ -59,6 +59,17 @@ Eigen::Vector2i HemiOctTexelOf(const Eigen::Vector3d& dir_local, int n);
 // (-1, j) -> (0, n-1-j), (n, j) -> (n-1, n-1-j), likewise for rows).
 Eigen::Vector2i OctWrapTexel(int i, int j, int n);
 
+// The direction of the brightest lobe of an n x n octahedral map given its per-texel luminance (row-major): the
+// solid-angle-weighted luminance centroid of the texels connected to the brightest one (across the folds) whose
+// luminance is at least `threshold_fraction` of its. A map of one bright texel gives that texel's direction.
+// Suits a broad lobe (a spread-out light, a recovered map's blurred sun).
+Eigen::Vector3d BrightestLobeDirection(const std::vector<double>& luminance, int n, double threshold_fraction = 0.5);
+// The direction of a compact source (a sun of a few texels) on a bright background (a sky): the brightest texel's
+// 3x3 neighbourhood, each texel weighted by its luminance above the median of the 16 texels around that
+// neighbourhood, times its solid angle. Unlike BrightestLobeDirection, the sky around the sun does not pull the
+// direction towards the centre of the bright region.
+Eigen::Vector3d CompactLobeDirection(const std::vector<double>& luminance, int n);
+
 // All texel directions of an n x n octahedral map, row-major (index j*n + i).
 std::vector<Eigen::Vector3d> OctTexelDirections(int n);
 // All exact texel solid angles of an n x n octahedral map, row-major.
