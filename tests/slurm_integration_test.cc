@@ -9,11 +9,12 @@
 // describes a run rather than its result (seconds, reuse counts, peak memory, start and end). Logs, the HTML report
 // page and its charts (they show the run's timings), Slurm's job files and the shards' logs are not results.
 //
-// The Slurm run goes as far as observe, then takes the local run's inverse entry into its cache (its key must be
-// one the local run computed, that is, every input of the solve equal), and a second Slurm run goes on from there
-// through relight, evaluate and report. The solve is the one stage that runs as a single long job; on one CPU it
-// doubled this test's time. That it gives the same bits on any thread count is solver_test's
-// SolveIsBitIdenticalOnOneOrTwoThreads.
+// The Slurm run starts from the local run's photos (its synthesize entry, the CI's photo generator rather than a
+// stage of a user's run) and goes as far as observe; it then takes the local run's inverse entry into its cache as
+// soon as the local run has written it (its key must be one the local run computed, that is, every input of the solve
+// equal), and a second Slurm run goes on from there through relight, evaluate and report while the local run does the
+// same. The solve is the one stage that runs as a single long job; on one CPU it doubled this test's time. That it
+// gives the same bits on any thread count is solver_test's SolveIsBitIdenticalOnOneOrTwoThreads.
 //
 // Each job asks for 1 CPU, so the stages run on 1 thread where the local run used 2: the comparison also
 // checks that no result depends on the thread count.
@@ -117,6 +118,36 @@ std::string StageField(const Json& summary, const std::string& name, const std::
   return "";
 }
 
+// Waits until the local run has a finished entry of `stage` (under `key`; any key when empty) and returns its
+// folder; empty if the local run ended (`done` written) without one, or after 30 minutes.
+fs::path WaitForLocalEntry(const std::string& local_ws, const std::string& stage, const std::string& key,
+                           const std::string& done) {
+  const fs::path cache = fs::path(local_ws) / "cache" / stage;
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::minutes(30);
+  while (std::chrono::steady_clock::now() < give_up) {
+    const bool ended = fs::is_regular_file(done);  // read before the entries: an entry written before it is seen
+    std::error_code ec;
+    for (fs::directory_iterator it(cache, ec), end; !ec && it != end; it.increment(ec)) {
+      if (!key.empty() && it->path().filename() != key) continue;
+      try {
+        const Json status = ReadJsonFile((it->path() / "status.json").string());
+        if (status.value("status", "") == "done") return it->path();
+      } catch (const std::exception&) {  // not written yet
+      }
+    }
+    if (ended) return {};
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+  }
+  return {};
+}
+
+// Copies a cache entry of the local run into the Slurm run's workspace, under the same key.
+void CopyEntry(const fs::path& local_entry, const std::string& ws, const std::string& stage) {
+  const fs::path cache = fs::path(ws) / "cache" / stage;
+  fs::create_directories(cache);
+  fs::copy(local_entry, cache / local_entry.filename(), fs::copy_options::recursive);
+}
+
 TEST(SlurmIntegrationTest, ChainOnSlurmEqualsLocalRunAndRerunsACancelledShard) {
   setenv("RELIGHT_PROGRESS", "plain", 1);
   const char* exported = std::getenv("RELIGHT_CHAIN_EXPORT");
@@ -143,6 +174,16 @@ TEST(SlurmIntegrationTest, ChainOnSlurmEqualsLocalRunAndRerunsACancelledShard) {
   const std::string run = testing::BinDir() + "/pipeline run " + config + " --workspace " + ws +
                           " --set pipeline.executor=slurm --set pipeline.slurm_shards=4"
                           " --set pipeline.slurm_cpus_per_task=1";
+  // The photos: the local run's synthesize entry, taken into this run's cache once the local run has written it
+  // (synthesize is the CI's photo generator, not a stage of a user's run; here it would render the same photos again
+  // as one single-CPU job). Its key must be the one this run plans, checked below.
+  const std::string done = std::string(exported) + ".done";
+  const fs::path local_synthesize = WaitForLocalEntry(local_ws, "synthesize", "", done);
+  ASSERT_FALSE(local_synthesize.empty()) << "chain_integration_test's local run wrote no synthesize entry in "
+                                         << local_ws
+                                         << " within 30 minutes (ctest runs the two together: ctest -R "
+                                            "'chain|slurm')";
+  CopyEntry(local_synthesize, ws, "synthesize");
   std::atomic<bool> finished{false};
   int rc = -1;
   std::string run_out;
@@ -168,8 +209,24 @@ TEST(SlurmIntegrationTest, ChainOnSlurmEqualsLocalRunAndRerunsACancelledShard) {
   ASSERT_FALSE(cancelled.empty()) << "no running mvs shard was seen to cancel\n" << run_out;
   EXPECT_NE(run_out.find("resubmitting it alone"), std::string::npos) << run_out;
 
-  // The local run of chain_integration_test, which runs at the same time.
-  const std::string done = std::string(exported) + ".done";
+  // The solve: the local run's entry under the key this run planned, as soon as the local run has it (the local run
+  // goes on with relight, evaluate, report and its own checks meanwhile).
+  {
+    const Json planned = ReadJsonFile(ws + "/summary.json");
+    ASSERT_EQ(StageField(planned, "synthesize", "key"), local_synthesize.filename().string())
+        << "synthesize: this run planned another key than the local run's (its options differ)";
+    const std::string inverse_key = StageField(planned, "inverse", "key");
+    ASSERT_FALSE(inverse_key.empty());
+    const fs::path local_inverse = WaitForLocalEntry(local_ws, "inverse", inverse_key, done);
+    ASSERT_FALSE(local_inverse.empty())
+        << "inverse: the local run ended or took over 30 minutes without an entry under this run's key " << inverse_key
+        << " (its inputs differ, or it failed: " << local_ws << "/pipeline.log)";
+    CopyEntry(local_inverse, ws, "inverse");
+  }
+  run_out.clear();
+  ASSERT_EQ(testing::RunCommand(run, &run_out), 0) << run_out;
+
+  // The local run's results, to compare with.
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::minutes(30);
   while (!fs::is_regular_file(done) && std::chrono::steady_clock::now() < give_up) {
     std::this_thread::sleep_for(std::chrono::seconds(5));
@@ -178,20 +235,6 @@ TEST(SlurmIntegrationTest, ChainOnSlurmEqualsLocalRunAndRerunsACancelledShard) {
                                             "this run: ctest runs the two together (ctest -R 'chain|slurm')";
   ASSERT_EQ(ReadFileToString(done), "0") << "chain_integration_test's local run failed: nothing to compare with";
   ASSERT_TRUE(fs::is_regular_file(local_ws + "/summary.json")) << "no local run in " << local_ws;
-
-  // The local run's solve, under the key the Slurm run computed for it.
-  {
-    const Json planned = ReadJsonFile(ws + "/summary.json");
-    const std::string inverse_key = StageField(planned, "inverse", "key");
-    ASSERT_FALSE(inverse_key.empty());
-    const fs::path local_inverse = fs::path(local_ws) / "cache/inverse" / inverse_key;
-    ASSERT_TRUE(fs::is_regular_file(local_inverse / "status.json"))
-        << "inverse: the Slurm run's key " << inverse_key << " is not a key of the local run (its inputs differ)";
-    fs::create_directories(fs::path(ws) / "cache/inverse");
-    fs::copy(local_inverse, fs::path(ws) / "cache/inverse" / inverse_key, fs::copy_options::recursive);
-  }
-  run_out.clear();
-  ASSERT_EQ(testing::RunCommand(run, &run_out), 0) << run_out;
 
   const Json summary = ReadJsonFile(ws + "/summary.json");
   int compared = 0;
