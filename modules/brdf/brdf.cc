@@ -1,6 +1,8 @@
 #include "brdf/brdf.h"
 
+#include <Eigen/Core>
 #include <algorithm>
+#include <limits>
 #include <sstream>
 
 #include "core/error.h"
@@ -222,6 +224,52 @@ ReflectanceModel ReadReflectanceModel(const std::string& path) {
 
 void WriteReflectanceModel(const std::string& path, const ReflectanceModel& model) {
   WriteJsonAtomic(path, ReflectanceModelToJson(model));
+}
+
+void BrdfLobe::EvalCosinesBatch(float cos_o, int n, const float* cos_i_ptr, const float* cos_h_ptr,
+                                const float* o_dot_h_ptr, const float* cos_mirror_ptr, float* out_ptr) const {
+  // Chunks of at most 256 directions on the stack (no allocation per call). Eigen evaluates a select()
+  // coefficient by coefficient, so what is costly (exp, log, sqrt, divisions) is computed before the masks.
+  constexpr int kChunk = 256;
+  using Chunk = Eigen::Array<float, Eigen::Dynamic, 1, Eigen::ColMajor, kChunk, 1>;
+  using ConstMap = Eigen::Map<const Eigen::ArrayXf>;
+  if (!(cos_o > 0) || model == BrdfModel::kLambertian) {
+    const float lambert = cos_o > 0 ? static_cast<float>(1.0 / M_PI) : 0.0f;
+    for (int k = 0; k < n; ++k) out_ptr[k] = cos_i_ptr[k] > 0 ? lambert : 0.0f;
+    return;
+  }
+  const float a2 = static_cast<float>(roughness * roughness), f0f = static_cast<float>(f0);
+  for (int first = 0; first < n; first += kChunk) {
+    const int len = std::min(kChunk, n - first);
+    const ConstMap cos_i(cos_i_ptr + first, len);
+    Eigen::Map<Eigen::ArrayXf> out(out_ptr + first, len);
+    Chunk value(len);
+    if (model == BrdfModel::kPhong) {
+      // c^n as exp(n log c), which Eigen vectorises; used where c > 0.
+      const ConstMap cos_mirror(cos_mirror_ptr + first, len);
+      value = cos_mirror.max(std::numeric_limits<float>::min()).log();
+      value = (static_cast<float>(exponent) * value).exp() * static_cast<float>((exponent + 2.0) / (2.0 * M_PI));
+      out = ((cos_i > 0.0f) && (cos_mirror > 0.0f)).select(value, 0.0f);
+      continue;
+    }
+    const ConstMap cos_h(cos_h_ptr + first, len), o_dot_h(o_dot_h_ptr + first, len);
+    Chunk m = 1.0f - o_dot_h.max(0.0f);
+    const Chunk fresnel = f0f + (1.0f - f0f) * m.square().square() * m;  // brdf_internal::Schlick
+    if (model == BrdfModel::kGgx) {
+      // GgxViewFactor(cos_o) · Schlick · GgxHalfFactor(cos_i, cos_h) / cos_i, the last divided out.
+      const Chunk t = a2 + (1.0f - a2) * ((1.0f - cos_h) * (1.0f + cos_h));
+      value = (a2 + (1.0f - a2) * cos_i.square()).sqrt();
+      value = (GgxViewFactor(cos_o) * static_cast<float>(2 * roughness * roughness / M_PI)) * fresnel /
+              (t.square() * (cos_i + value));
+    } else {
+      // Cook-Torrance: Beckmann D, V-cavity G (EvalCosines).
+      const Chunk cos_h2 = cos_h.square();
+      value = (-((1.0f - cos_h2) / cos_h2) / a2).exp() / (static_cast<float>(M_PI) * a2 * cos_h2.square());
+      m = (2.0f * cos_h * cos_i / o_dot_h).min(2.0f * cos_h * cos_o / o_dot_h).min(1.0f);
+      value = value * m * fresnel / (4.0f * cos_i * cos_o);
+    }
+    out = (cos_i > 0.0f).select(value, 0.0f);
+  }
 }
 
 }  // namespace relight

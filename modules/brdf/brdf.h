@@ -62,6 +62,11 @@ struct BrdfLobe {
   // Arguments a lobe does not use are ignored. Eval computes these and calls it.
   template <typename T>
   T EvalCosines(const T& cos_i, const T& cos_o, const T& cos_h, const T& o_dot_h, const T& cos_mirror) const;
+  // EvalCosines at one outgoing direction for n incident directions, vectorised (Eigen arrays): out[k] =
+  // EvalCosines(cos_i[k], cos_o, cos_h[k], o_dot_h[k], cos_mirror[k]) within float rounding, for the inner loops
+  // of quadratures over many directions. Arrays the lobe does not use may be null.
+  void EvalCosinesBatch(float cos_o, int n, const float* cos_i, const float* cos_h, const float* o_dot_h,
+                        const float* cos_mirror, float* out) const;
   // GGX factored for many incident directions at one outgoing one (the
   // transport rows hoist what depends on wo alone):
   //   f(wi, wo) cos_i = GgxViewFactor(cos_o) · Schlick(f0, o_dot_h) · GgxHalfFactor(cos_i, cos_h),

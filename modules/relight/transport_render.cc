@@ -24,6 +24,7 @@ namespace relight {
 struct TransportRenderer::TexelTable {
   int resolution = 0;  // of the visibility map
   std::vector<Eigen::Vector3f> dir_local;
+  std::vector<float> dir_x, dir_y, dir_z;  // dir_local's coordinates, for vectorised loops
   std::vector<float> solid_angle_cos;  // Ω_j cos θ_j
   std::vector<int> parent;
 
@@ -38,6 +39,9 @@ struct TransportRenderer::TexelTable {
         const size_t j = size_t(y) * n + x;
         if (dirs[j].z() <= 0) continue;
         dir_local.push_back(dirs[j].cast<float>());
+        dir_x.push_back(dir_local.back().x());
+        dir_y.push_back(dir_local.back().y());
+        dir_z.push_back(dir_local.back().z());
         solid_angle_cos.push_back(static_cast<float>(omega[j] * dirs[j].z()));
         parent.push_back((y / sub) * n_local + x / sub);
       }
@@ -49,6 +53,7 @@ struct TransportRenderer::TexelTable {
 struct TransportRenderer::CoarseTable {
   int resolution = 0;
   std::vector<Eigen::Vector3f> dir_local;
+  std::vector<float> dir_x, dir_y, dir_z;  // dir_local's coordinates, for vectorised loops
   std::vector<float> solid_angle_cos;
   std::vector<std::array<int, 4>> children;
 
@@ -61,6 +66,9 @@ struct TransportRenderer::CoarseTable {
         const size_t j = size_t(y) * n + x;
         if (dirs[j].z() <= 0) continue;
         dir_local.push_back(dirs[j].cast<float>());
+        dir_x.push_back(dir_local.back().x());
+        dir_y.push_back(dir_local.back().y());
+        dir_z.push_back(dir_local.back().z());
         solid_angle_cos.push_back(static_cast<float>(omega[j] * dirs[j].z()));
         children.push_back({2 * y * fine + 2 * x, 2 * y * fine + 2 * x + 1, (2 * y + 1) * fine + 2 * x,
                             (2 * y + 1) * fine + 2 * x + 1});
@@ -99,7 +107,6 @@ struct TransportRenderer::SurfaceState {
     const BrdfLobe* lobe = nullptr;
     bool lambertian = false, phong = false;
     float half_cutoff = -2, mirror_cutoff = -2;  // texels beyond them are skipped (solver/transport.h)
-    float f0 = 0;                                // microfacet Fresnel at normal incidence
     // Directions where the lobe is above 1 % of its peak, widened by a coarse texel: cosine of the angle to the
     // normal (half vector) or to the mirror direction (Phong) below which the coarse quadrature suffices
     // (2: everywhere, for a wide lobe).
@@ -143,15 +150,42 @@ void OctBilinear(const Eigen::Vector3f& d, int n, int* x0, int* y0, float* fx, f
   *fy = std::clamp(y - fy0, 0.0f, 1.0f);
 }
 
+// OctBilinear for m world directions (structure of arrays), 8 at a time: per direction the lower corner's texel
+// (x0, y0) as floats and the weights fx, fy.
+void OctFootprints(int m, const float* dx, const float* dy, const float* dz, int n, float* fx_out, float* fy_out,
+                   float* x0_out, float* y0_out) {
+  using ConstMap = Eigen::Map<const Eigen::ArrayXf>;
+  Eigen::Map<Eigen::ArrayXf> u(fx_out, m), v(fy_out, m), fu(x0_out, m), fv(y0_out, m);
+  const ConstMap x(dx, m), y(dy, m), z(dz, m);
+  fu = x.abs() + y.abs() + z.abs();
+  u = x / fu;
+  v = y / fu;
+  // Below the equator the octahedron's lower half is folded out over the square's corners.
+  for (int k = 0; k < m; ++k) {
+    if (!(dz[k] < 0)) continue;
+    const float px = u[k], py = v[k];
+    u[k] = (1 - std::abs(py)) * (px >= 0 ? 1.0f : -1.0f);
+    v[k] = (1 - std::abs(px)) * (py >= 0 ? 1.0f : -1.0f);
+  }
+  u = (u * 0.5f + 0.5f) * float(n) - 0.5f;
+  v = (v * 0.5f + 0.5f) * float(n) - 0.5f;
+  fu = u.floor();
+  fv = v.floor();
+  u = (u - fu).max(0.0f).min(1.0f);
+  v = (v - fv).max(0.0f).min(1.0f);
+  fu = fu.max(-1.0f).min(float(n - 1));
+  fv = fv.max(-1.0f).min(float(n - 1));
+}
+
 // An RGB octahedral map with a one-texel border copied across the folds, so bilinear reads need no wrapping.
 struct PaddedOct {
   int n = 0;
-  std::vector<float> rgb;  // (n+2)² texels
+  std::vector<Eigen::Array4f> rgb;  // (n+2)² texels, RGB and a zero (one aligned load per texel)
 
   explicit PaddedOct(const Image& oct = Image()) : n(oct.width) {
     if (n == 0) return;
     const int w = n + 2;
-    rgb.assign(size_t(w) * w * 3, 0.0f);
+    rgb.assign(size_t(w) * w, Eigen::Array4f::Zero());
     for (int j = -1; j <= n; ++j)
       for (int i = -1; i <= n; ++i) {
         Eigen::Vector2i t(i, j);
@@ -159,8 +193,7 @@ struct PaddedOct {
         if (t.x() < 0 || t.x() >= n) t = OctWrapTexel(t.x(), std::clamp(t.y(), 0, n - 1), n);
         if (j < 0 || j >= n) t = OctWrapTexel(t.x(), j, n);
         const int si = std::clamp(t.x(), 0, n - 1), sj = std::clamp(t.y(), 0, n - 1);
-        for (int c = 0; c < 3; ++c)
-          rgb[(size_t(j + 1) * w + (i + 1)) * 3 + c] = oct.at(si, sj, std::min(c, oct.channels - 1));
+        for (int c = 0; c < 3; ++c) rgb[size_t(j + 1) * w + (i + 1)][c] = oct.at(si, sj, std::min(c, oct.channels - 1));
       }
   }
 
@@ -169,24 +202,117 @@ struct PaddedOct {
     int x0, y0;
     float fx, fy;
     OctBilinear(d, n, &x0, &y0, &fx, &fy);
-    const int w = n + 2;
-    const float* p00 = rgb.data() + (size_t(y0 + 1) * w + (x0 + 1)) * 3;
-    const float* p10 = p00 + 3;
-    const float* p01 = p00 + size_t(w) * 3;
-    const float* p11 = p01 + 3;
-    const float w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy, w11 = fx * fy;
-    return Eigen::Vector3f(w00 * p00[0] + w10 * p10[0] + w01 * p01[0] + w11 * p11[0],
-                           w00 * p00[1] + w10 * p10[1] + w01 * p01[1] + w11 * p11[1],
-                           w00 * p00[2] + w10 * p10[2] + w01 * p01[2] + w11 * p11[2]);
+    return Texels(x0, y0, fx, fy);
+  }
+
+  // Σ_k Lookup(d_k) ⊙ weight_k over m world directions (any length > 0; structure of arrays), skipping zero
+  // weights: OctBilinear's footprints computed 8 at a time into `scratch`, then the texels read per direction.
+  Eigen::Vector3f WeightedSum(int m, const float* dx, const float* dy, const float* dz, const float* wr,
+                              const float* wg, const float* wb, std::vector<float>* scratch) const {
+    scratch->resize(size_t(4) * m);
+    Eigen::Map<Eigen::ArrayXf> u(scratch->data(), m), v(scratch->data() + m, m), fu(scratch->data() + 2 * m, m),
+        fv(scratch->data() + 3 * m, m);
+    OctFootprints(m, dx, dy, dz, n, u.data(), v.data(), fu.data(), fv.data());
+    // The light per direction (into fu, fv and u, whose values are read first), then the weighted sums.
+    for (int k = 0; k < m; ++k) {
+      Eigen::Array4f light = Eigen::Array4f::Zero();
+      if (wr[k] != 0 || wg[k] != 0 || wb[k] != 0)
+        light = Texels4(static_cast<int>(fu[k]), static_cast<int>(fv[k]), u[k], v[k]);
+      fu[k] = light[0];
+      fv[k] = light[1];
+      u[k] = light[2];
+    }
+    return Eigen::Vector3f((fu * Eigen::Map<const Eigen::ArrayXf>(wr, m)).sum(),
+                           (fv * Eigen::Map<const Eigen::ArrayXf>(wg, m)).sum(),
+                           (u * Eigen::Map<const Eigen::ArrayXf>(wb, m)).sum());
+  }
+
+ private:
+  // The bilinear blend of the texels (x0, y0) to (x0 + 1, y0 + 1), x0, y0 in [-1, n-1] (OctBilinear).
+  Eigen::Vector3f Texels(int x0, int y0, float fx, float fy) const {
+    return Texels4(x0, y0, fx, fy).head<3>().matrix();
+  }
+  Eigen::Array4f Texels4(int x0, int y0, float fx, float fy) const {
+    const size_t w = n + 2, i00 = size_t(y0 + 1) * w + (x0 + 1);
+    return (1 - fy) * ((1 - fx) * rgb[i00] + fx * rgb[i00 + 1]) +
+           fy * ((1 - fx) * rgb[i00 + w] + fx * rgb[i00 + w + 1]);
   }
 };
 
-// The four texels (row-major indices) and bilinear weights of world direction d on an n x n octahedral map:
-// the transpose of PaddedOct::Lookup, as solver/transport.cc splats.
-void OctSplat(const Eigen::Vector3f& d, int n, std::array<int, 4>* index, std::array<float, 4>* weight) {
-  int x0, y0;
-  float fx, fy;
-  OctBilinear(d, n, &x0, &y0, &fx, &fy);
+// The directions of one vertex's glossy quadrature (local, structure of arrays) with their weights V Ω cos, and
+// the scratch GlossySum evaluates them in (kept per thread, so that no vertex allocates once it has grown).
+struct GlossyDirections {
+  int size = 0;
+  std::vector<float> x, y, z, weight;
+  std::vector<float> cos_h, o_dot_h, cos_mirror, f, r, g, b, wx, wy, wz, footprint;
+
+  // Room for `capacity` directions; empties the list.
+  void Reset(size_t capacity) {
+    size = 0;
+    if (x.size() >= capacity) return;
+    for (std::vector<float>* v : {&x, &y, &z, &weight, &cos_h, &o_dot_h, &cos_mirror, &f, &r, &g, &b, &wx, &wy, &wz})
+      v->resize(capacity);
+  }
+  void Add(const Eigen::Vector3f& d, float w) {
+    x[size] = d.x();
+    y[size] = d.y();
+    z[size] = d.z();
+    weight[size++] = w;
+  }
+};
+
+// A glossy lobe of a vertex: its BRDF, where it is cut off (solver/transport.h) and its RGB coefficient.
+struct GlossyLobe {
+  const BrdfLobe* lobe = nullptr;
+  bool phong = false;
+  float half_cutoff = -2, mirror_cutoff = -2;
+  Eigen::Vector3f rgb = Eigen::Vector3f::Zero();
+};
+
+// Σ_d Σ_g k_g f_g(d, wo) · weight_d · L(frame · d) over the gathered directions: the lobes evaluated 8 directions
+// at a time (BrdfLobe::EvalCosinesBatch), zero beyond their cutoffs, and the light read where the sum is non-zero.
+Eigen::Vector3f GlossySum(const PaddedOct& light, const LocalFrame<float>& frame, const Eigen::Vector3f& wo,
+                          int num_lobes, const GlossyLobe* lobes, GlossyDirections* dirs) {
+  using Map = Eigen::Map<Eigen::ArrayXf>;
+  const int m = dirs->size;
+  const Map x(dirs->x.data(), m), y(dirs->y.data(), m), z(dirs->z.data(), m), weight(dirs->weight.data(), m);
+  Map cos_h(dirs->cos_h.data(), m), o_dot_h(dirs->o_dot_h.data(), m), cos_mirror(dirs->cos_mirror.data(), m),
+      f(dirs->f.data(), m), r(dirs->r.data(), m), g(dirs->g.data(), m), b(dirs->b.data(), m);
+  // The half vector h = (d + wo) / |d + wo|; f holds 1 / |d + wo| for now.
+  f = ((x + wo.x()).square() + (y + wo.y()).square() + (z + wo.z()).square()).sqrt().inverse();
+  cos_h = (z + wo.z()) * f;
+  o_dot_h = ((wo.x() * (x + wo.x()) + wo.y() * (y + wo.y()) + wo.z() * (z + wo.z())) * f).max(0.0f);
+  cos_mirror = z * wo.z() - x * wo.x() - y * wo.y();  // d · (−wo.x, −wo.y, wo.z)
+  r.setZero();
+  g.setZero();
+  b.setZero();
+  for (int k = 0; k < num_lobes; ++k) {
+    const GlossyLobe& lobe = lobes[k];
+    lobe.lobe->EvalCosinesBatch(wo.z(), m, dirs->z.data(), dirs->cos_h.data(), dirs->o_dot_h.data(),
+                                dirs->cos_mirror.data(), dirs->f.data());
+    if (lobe.phong) {
+      f = (cos_mirror >= lobe.mirror_cutoff).select(f, 0.0f);
+    } else {
+      f = (cos_h >= lobe.half_cutoff).select(f, 0.0f);
+    }
+    r += lobe.rgb.x() * f;
+    g += lobe.rgb.y() * f;
+    b += lobe.rgb.z() * f;
+  }
+  r *= weight;
+  g *= weight;
+  b *= weight;
+  Map(dirs->wx.data(), m) = frame.tangent.x() * x + frame.bitangent.x() * y + frame.normal.x() * z;
+  Map(dirs->wy.data(), m) = frame.tangent.y() * x + frame.bitangent.y() * y + frame.normal.y() * z;
+  Map(dirs->wz.data(), m) = frame.tangent.z() * x + frame.bitangent.z() * y + frame.normal.z() * z;
+  return light.WeightedSum(m, dirs->wx.data(), dirs->wy.data(), dirs->wz.data(), dirs->r.data(), dirs->g.data(),
+                           dirs->b.data(), &dirs->footprint);
+}
+
+// The four texels (row-major indices) and bilinear weights of the footprint OctBilinear gives a direction on an
+// n x n octahedral map, wrapped across the folds: the transpose of PaddedOct::Lookup, as solver/transport.cc splats.
+void OctSplatFootprint(int x0, int y0, float fx, float fy, int n, std::array<int, 4>* index,
+                       std::array<float, 4>* weight) {
   const int dx[4] = {0, 1, 0, 1}, dy[4] = {0, 0, 1, 1};
   const float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
   for (int k = 0; k < 4; ++k) {
@@ -253,7 +379,6 @@ TransportRenderer::TransportRenderer(const Scene& scene, const VisibilityData& o
       info.lobe = &lobe;
       info.lambertian = lobe.model == BrdfModel::kLambertian;
       info.phong = lobe.model == BrdfModel::kPhong;
-      info.f0 = static_cast<float>(lobe.f0);
       info.half_cutoff = static_cast<float>(LobeHalfVectorCutoff(lobe));
       info.mirror_cutoff = static_cast<float>(PhongMirrorCutoff(lobe));
       if (info.half_cutoff <= -1) info.half_cutoff = -2;
@@ -411,13 +536,36 @@ void TransportRenderer::EnsureOccluderVisibility(int surface, const std::vector<
     const uint8_t* vis = st.Map(v);
     const LocalFrame<float> frame = FrameFromNormal<float>(scene_.surface(surface).mesh.normals[v].normalized());
     std::vector<float> pixels(size_t(n) * n, 0.0f), coeffs(size_t(n) * n);
-    for (size_t j = 0; j < table.dir_local.size(); ++j) {
+    // The directions' world coordinates and footprints 8 at a time, then the splats one by one (wrapped across
+    // the folds only at the map's border).
+    const int m = static_cast<int>(table.dir_local.size());
+    thread_local std::vector<float> buffer;
+    buffer.resize(size_t(7) * m);
+    float *wx = buffer.data(), *wy = wx + m, *wz = wy + m, *fx = wz + m, *fy = fx + m, *x0 = fy + m, *y0 = x0 + m;
+    {
+      using ConstMap = Eigen::Map<const Eigen::ArrayXf>;
+      const ConstMap x(table.dir_x.data(), m), y(table.dir_y.data(), m), z(table.dir_z.data(), m);
+      Eigen::Map<Eigen::ArrayXf>(wx, m) = frame.tangent.x() * x + frame.bitangent.x() * y + frame.normal.x() * z;
+      Eigen::Map<Eigen::ArrayXf>(wy, m) = frame.tangent.y() * x + frame.bitangent.y() * y + frame.normal.y() * z;
+      Eigen::Map<Eigen::ArrayXf>(wz, m) = frame.tangent.z() * x + frame.bitangent.z() * y + frame.normal.z() * z;
+    }
+    OctFootprints(m, wx, wy, wz, n, fx, fy, x0, y0);
+    for (int j = 0; j < m; ++j) {
       const uint8_t vq = vis[table.parent[j]];
       if (vq == 0) continue;
       const float w = vq * (1.0f / 255.0f) * table.solid_angle_cos[j];
+      const int tx = static_cast<int>(x0[j]), ty = static_cast<int>(y0[j]);
+      if (tx >= 0 && ty >= 0 && tx + 1 < n && ty + 1 < n) {
+        float* p = pixels.data() + size_t(ty) * n + tx;
+        p[0] += w * (1 - fx[j]) * (1 - fy[j]);
+        p[1] += w * fx[j] * (1 - fy[j]);
+        p[n] += w * (1 - fx[j]) * fy[j];
+        p[n + 1] += w * fx[j] * fy[j];
+        continue;
+      }
       std::array<int, 4> idx;
       std::array<float, 4> wt;
-      OctSplat(frame.ToWorld(table.dir_local[j]), n, &idx, &wt);
+      OctSplatFootprint(tx, ty, fx[j], fy[j], n, &idx, &wt);
       for (int k = 0; k < 4; ++k) pixels[idx[k]] += w * wt[k];
     }
     HaarForward(pixels.data(), n, coeffs.data());
@@ -558,81 +706,60 @@ Eigen::Vector3f TransportRenderer::Shade(const LightState& light, int surface, u
   if (light.has_env) {
     const TexelTable& table = surface == 0 ? *object_texels_ : *occluder_texels_;
     const uint8_t* vis = st.Map(vertex);
-    const Eigen::Vector3f mirror(-wo.x(), -wo.y(), wo.z());
-    std::array<Eigen::Vector3f, kMaxLobes> glossy_sum;
-    std::array<float, kMaxLobes> f;
-    for (int g = 0; g < num_glossy; ++g) glossy_sum[g].setZero();
-    const size_t num_texels = table.dir_local.size();
-    constexpr float kVisibilityScale = 1.0f / 255.0f;
-    const float cos_o = wo.z();
-    // GGX factored (brdf.h): what depends on the view alone, once per vertex.
-    std::array<float, kMaxLobes> ggx_view;
-    for (int g = 0; g < num_glossy; ++g) {
-      const SurfaceState::LobeInfo& lobe = st.lobes[glossy[g]];
-      ggx_view[g] = lobe.lobe->model == BrdfModel::kGgx ? lobe.lobe->GgxViewFactor(cos_o) : 0.0f;
-    }
-    // f_b(ω, w_o) of glossy lobe g (its cosines computed once per direction by the caller).
-    auto eval = [&](int g, const Eigen::Vector3f& d, float cos_h, float o_dot_h, float cos_mirror) {
-      const SurfaceState::LobeInfo& lobe = st.lobes[glossy[g]];
-      if (lobe.phong ? cos_mirror < lobe.mirror_cutoff : cos_h < lobe.half_cutoff) return 0.0f;
-      if (lobe.lobe->model == BrdfModel::kGgx)
-        return ggx_view[g] * brdf_internal::Schlick(lobe.f0, o_dot_h) * lobe.lobe->GgxHalfFactor(d.z(), cos_h) / d.z();
-      return lobe.lobe->EvalCosines<float>(d.z(), cos_o, cos_h, o_dot_h, cos_mirror);
-    };
-    // Adds every glossy lobe's f · V Ω cos L at direction d (weight = V Ω cos, V in 1/255 steps).
-    auto add_direction = [&](const Eigen::Vector3f& d, float weight) {
-      const Eigen::Vector3f h = (d + wo).normalized();
-      const float cos_h = h.z(), o_dot_h = std::max(0.0f, wo.dot(h)), cos_mirror = d.dot(mirror);
-      bool any = false;
-      for (int g = 0; g < num_glossy; ++g) {
-        f[g] = eval(g, d, cos_h, o_dot_h, cos_mirror);
-        any = any || f[g] > 0;
-      }
-      if (!any) return;
-      const Eigen::Vector3f l = weight * light.light.Lookup(frame.ToWorld(d));
-      for (int g = 0; g < num_glossy; ++g)
-        if (f[g] > 0) glossy_sum[g] += f[g] * l;
-    };
+    // The directions to sum (local, with their weight V Ω cos, V in 1/255 steps), gathered first so the lobes
+    // and the light are evaluated over all of them at once (GlossySum).
+    thread_local GlossyDirections dirs;
+    dirs.Reset(table.dir_local.size() + (object_coarse_ ? object_coarse_->dir_local.size() : 0));
     if (num_glossy > 0 && surface == 0 && object_coarse_) {
       // Adaptive quadrature: the coarse texels (2 x 2 visibility texels each) where some lobe is near its
       // peak (its core) are summed over their fine texels, the others (the lobes' tails, smooth) at their
       // centre with the mean visibility.
       const CoarseTable& coarse = *object_coarse_;
-      for (size_t j = 0; j < coarse.dir_local.size(); ++j) {
+      // A coarse texel is a core one where its cosine to the mirror direction (Phong) or its half vector's to the
+      // normal (microfacets) reaches the least core cosine of the vertex's lobes of that kind.
+      float phong_core = 2, microfacet_core = 2;
+      for (int g = 0; g < num_glossy; ++g) {
+        const SurfaceState::LobeInfo& lobe = st.lobes[glossy[g]];
+        float& core = lobe.phong ? phong_core : microfacet_core;
+        core = std::min(core, lobe.core_cos);
+      }
+      const int nc = static_cast<int>(coarse.dir_local.size());
+      using Map = Eigen::Map<const Eigen::ArrayXf>;
+      const Map cx(coarse.dir_x.data(), nc), cy(coarse.dir_y.data(), nc), cz(coarse.dir_z.data(), nc);
+      Eigen::Map<Eigen::ArrayXf> core_mirror(dirs.cos_mirror.data(), nc), core_half(dirs.cos_h.data(), nc);
+      core_mirror = cz * wo.z() - cx * wo.x() - cy * wo.y();
+      core_half = (cz + wo.z()) * ((cx + wo.x()).square() + (cy + wo.y()).square() + (cz + wo.z()).square()).rsqrt();
+      for (int j = 0; j < nc; ++j) {
         const std::array<int, 4>& c = coarse.children[j];
         const int vq = vis[c[0]] + vis[c[1]] + vis[c[2]] + vis[c[3]];
         if (vq == 0) continue;
         const Eigen::Vector3f& d = coarse.dir_local[j];
-        bool core = false;
-        const float cos_mirror = d.dot(mirror);
-        float cos_h = 2;
-        for (int g = 0; g < num_glossy && !core; ++g) {
-          const SurfaceState::LobeInfo& lobe = st.lobes[glossy[g]];
-          if (lobe.phong) {
-            core = cos_mirror >= lobe.core_cos;
-          } else {
-            if (cos_h > 1) cos_h = (d + wo).normalized().z();
-            core = cos_h >= lobe.core_cos;
-          }
-        }
+        const bool core = core_mirror[j] >= phong_core || core_half[j] >= microfacet_core;
         if (!core) {
-          add_direction(d, 0.25f * vq * coarse.solid_angle_cos[j]);
+          dirs.Add(d, 0.25f * vq * coarse.solid_angle_cos[j]);
           continue;
         }
         for (uint32_t q = coarse.fine_first[j]; q < coarse.fine_first[j + 1]; ++q) {
           const uint32_t t = coarse.fine[q];
           const uint8_t v = vis[table.parent[t]];
-          if (v > 0) add_direction(table.dir_local[t], v * table.solid_angle_cos[t]);
+          if (v > 0) dirs.Add(table.dir_local[t], v * table.solid_angle_cos[t]);
         }
       }
     } else if (num_glossy > 0) {
-      for (size_t j = 0; j < num_texels; ++j) {
+      for (size_t j = 0; j < table.dir_local.size(); ++j) {
         const uint8_t v = vis[table.parent[j]];
-        if (v > 0) add_direction(table.dir_local[j], v * table.solid_angle_cos[j]);
+        if (v > 0) dirs.Add(table.dir_local[j], v * table.solid_angle_cos[j]);
       }
     }
+    if (dirs.size > 0) {
+      std::array<GlossyLobe, kMaxLobes> lobes;
+      for (int g = 0; g < num_glossy; ++g) {
+        const SurfaceState::LobeInfo& info = st.lobes[glossy[g]];
+        lobes[g] = {info.lobe, info.phong, info.half_cutoff, info.mirror_cutoff, glossy_rgb[g]};
+      }
+      radiance += (1.0f / 255.0f) * GlossySum(light.light, frame, wo, num_glossy, lobes.data(), &dirs);
+    }
     radiance += DiffuseEnv(&mutable_light, surface, vertex, lambert_rgb);
-    for (int g = 0; g < num_glossy; ++g) radiance += kVisibilityScale * glossy_rgb[g].cwiseProduct(glossy_sum[g]);
   }
   // Delta lights, with one shadow ray each (kept per light).
   ForEachUnblockedDelta(&mutable_light, surface, vertex, normal,

@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <numeric>
+#include <type_traits>
 
 #include "core/error.h"
 
@@ -134,9 +137,31 @@ BasicSparseCoefficients<T> SparseFromDense(const T* coeffs, int n, double thresh
   return out;
 }
 
+namespace {
+// Float coefficients ordered by decreasing magnitude, ties by lower index, as one integer key each: the bits of a
+// non-negative float order as its value, so the complement of |c|'s bits above the index sorts ascending in that
+// order (a plain integer sort, several times faster than comparing through the coefficients).
+std::vector<uint64_t> MagnitudeKeys(const float* coeffs, size_t total) {
+  std::vector<uint64_t> keys(total);
+  for (size_t k = 0; k < total; ++k) {
+    uint32_t bits;
+    const float magnitude = std::abs(coeffs[k]);
+    std::memcpy(&bits, &magnitude, sizeof bits);
+    keys[k] = (uint64_t(~bits) << 32) | uint64_t(k);
+  }
+  return keys;
+}
+}  // namespace
+
 template <typename T>
 std::vector<uint32_t> IndicesByMagnitude(const T* coeffs, int n) {
   std::vector<uint32_t> order(size_t(n) * n);
+  if constexpr (std::is_same_v<T, float>) {
+    std::vector<uint64_t> keys = MagnitudeKeys(coeffs, order.size());
+    std::sort(keys.begin(), keys.end());
+    for (size_t k = 0; k < keys.size(); ++k) order[k] = static_cast<uint32_t>(keys[k]);
+    return order;
+  }
   std::iota(order.begin(), order.end(), 0u);
   std::stable_sort(order.begin(), order.end(),
                    [&](uint32_t x, uint32_t y) { return std::abs(coeffs[x]) > std::abs(coeffs[y]); });
@@ -162,6 +187,13 @@ template <typename T>
 BasicSparseCoefficients<T> KeepLargest(const T* coeffs, int n, size_t k) {
   const size_t total = size_t(n) * n;
   k = std::min(k, total);
+  if constexpr (std::is_same_v<T, float>) {
+    std::vector<uint64_t> keys = MagnitudeKeys(coeffs, total);
+    std::nth_element(keys.begin(), keys.begin() + k, keys.end());
+    std::vector<uint32_t> kept(k);
+    for (size_t q = 0; q < k; ++q) kept[q] = static_cast<uint32_t>(keys[q]);
+    return Gather(coeffs, n, std::move(kept));
+  }
   std::vector<uint32_t> order(total);
   std::iota(order.begin(), order.end(), 0u);
   auto larger = [&](uint32_t x, uint32_t y) {

@@ -132,6 +132,27 @@ TEST(HaarTest, NonLinearApproximation) {
   EXPECT_EQ(dense, c);
 }
 
+// Float coefficients take an integer-key sort: the same order and the same kept sets as the comparison sort
+// (double, the same values), ties broken by lower index, on data with many ties (values on a coarse grid, zeros
+// and signs mixed).
+TEST(HaarTest, FloatOrderEqualsTheComparisonSort) {
+  std::mt19937 rng(9);
+  std::uniform_int_distribution<int> level(-6, 6);
+  const int n = 32;
+  std::vector<float> c(size_t(n) * n);
+  for (float& v : c) v = 0.25f * level(rng);
+  const std::vector<double> d(c.begin(), c.end());
+  EXPECT_EQ(IndicesByMagnitude(c.data(), n), IndicesByMagnitude(d.data(), n));
+  for (size_t k : {size_t(0), size_t(1), size_t(100), size_t(700), size_t(1024)}) {
+    const SparseCoefficients f = KeepLargest(c.data(), n, k);
+    const SparseCoefficientsD g = KeepLargest(d.data(), n, k);
+    EXPECT_EQ(f.index, g.index) << k;
+  }
+  for (double fraction : {0.3, 0.9, 0.999, 1.0}) {
+    EXPECT_EQ(KeepEnergy(c.data(), n, fraction).index, KeepEnergy(d.data(), n, fraction).index) << fraction;
+  }
+}
+
 TEST(TripleProductTest, DenseEqualsBruteForce) {
   std::mt19937 rng(3);
   for (int n : {1, 2, 4, 8, 16, 32, 64}) {
