@@ -223,8 +223,10 @@ TEST(GltfBlenderWorld, ExportedMapLightsTheWorldInTheWorldFrame) {
     }
   const gltf_testing::TestModel t = gltf_testing::MakeTestModel();
   testing::TempDir dir;
-  const ExportRecord e =
-      WriteExport(dir.path(), t.mesh, t.reflectance, {{"photo.jpg", EnvMap::FromOctahedral(oct), {}}});
+  RecoveredPhoto photo;
+  photo.name = "photo.jpg";
+  photo.envmap = EnvMap::FromOctahedral(oct);
+  const ExportRecord e = WriteExport(dir.path(), t.mesh, t.reflectance, {photo});
   ASSERT_EQ(e.albedo_scale, 1.0);
   ASSERT_EQ(e.envmaps.size(), 1u);
   WriteFileAtomic(dir / "world.py", kWorldScript);
