@@ -2,6 +2,7 @@
 
 #include <OpenImageIO/imageio.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <cmath>
@@ -701,14 +702,11 @@ VisibilityMaps LoadVisibilityMaps(const std::string& visibility_dir) {
   return maps;
 }
 
-// The interactive viewer (relight/viewer_export.h), under each photo's recovered map and each new map; a note in
-// `summary` without the visibility maps.
+// The interactive viewer (relight/viewer_export.h), under each photo's recovered map and each new map; its page's
+// path in `page`. None without the visibility maps.
 void WriteViewer(const RelightContext& ctx, const std::vector<RecoveredPhoto>& photos, const NamedLights& file_lights,
-                 const std::vector<EnvMap>& file_maps, const VisibilityMaps& visibility, RelightSummary* summary) {
-  if (!visibility.available) {
-    summary->notes.push_back("no interactive viewer: the visibility stage's maps were not given");
-    return;
-  }
+                 const std::vector<EnvMap>& file_maps, const VisibilityMaps& visibility, std::string* page) {
+  if (!visibility.available) return;
   std::vector<std::pair<std::string, EnvMap>> maps;
   for (const RecoveredPhoto& photo : photos) maps.emplace_back(Stem(photo.name), photo.envmap);
   for (size_t m = 0; m < file_lights.size(); ++m) maps.emplace_back(file_lights[m].first, file_maps[m]);
@@ -717,7 +715,7 @@ void WriteViewer(const RelightContext& ctx, const std::vector<RecoveredPhoto>& p
   vo.tonemap_percentile = ctx.options.tonemap_percentile;
   const ViewerExport viewer =
       WriteViewerAssets(JoinPath(ctx.output_dir, "export/viewer"), ctx.model, visibility.data, maps, vo);
-  summary->viewer = "export/viewer/viewer.html";
+  *page = "export/viewer/viewer.html";
   RLOG_INFO("viewer: {}", viewer.BriefReport());
 }
 
@@ -810,10 +808,38 @@ void WriteFlatImage(const RelightContext& ctx, const std::vector<Eigen::Vector3f
   WritePng(JoinPath(ctx.output_dir, r->png), ToneMapSrgb(image, r->exposure));
 }
 
+// Tasks that write files while the views render (the renderers keep both cores busy, encoding an image is serial).
+// Waited for before the summary is written, and when an exception leaves the stage early, so that no task outlives
+// what it reads; the first task's exception is rethrown by Wait.
+class BackgroundWrites {
+ public:
+  ~BackgroundWrites() {
+    if (!waited_) {
+      group_.cancel();
+      try {
+        group_.wait();
+      } catch (...) {  // the exception already leaving the stage is the one to report
+      }
+    }
+  }
+  template <typename F>
+  void Run(F&& f) {
+    group_.run(std::forward<F>(f));
+  }
+  void Wait() {
+    waited_ = true;
+    group_.wait();
+  }
+
+ private:
+  tbb::task_group group_;
+  bool waited_ = false;
+};
+
 // Renders what is missing (a shard: only the radiance and masks of its views), reads back what an earlier run
-// rendered, and writes the PNGs; counts both in `summary`.
+// rendered, and writes the PNGs (in `background`); counts both in `summary`.
 void RenderJobs(const RelightContext& ctx, const VisibilityMaps& visibility, std::vector<Job>* jobs,
-                RelightSummary* summary) {
+                RelightSummary* summary, BackgroundWrites* background) {
   const RelightOptions& o = ctx.options;
   for (const auto& dir : {"rerender", "heldout", "novel", "albedo", "material", "turntable"})
     EnsureDir(JoinPath(ctx.output_dir, std::string("renders/") + dir));
@@ -840,8 +866,10 @@ void RenderJobs(const RelightContext& ctx, const VisibilityMaps& visibility, std
       radiance = view.radiance;
       mask = view.mask;
       r.seconds = view.seconds;
-      WriteExr(exr, radiance);
-      WritePng(mask_path, mask);
+      background->Run([exr, mask_path, radiance, mask] {
+        WriteExr(exr, radiance);
+        WritePng(mask_path, mask);
+      });
       ++summary->rendered;
     }
     if (ctx.shard.active()) continue;
@@ -851,7 +879,9 @@ void RenderJobs(const RelightContext& ctx, const VisibilityMaps& visibility, std
       exposure = turntable_exposure;
     }
     r.exposure = exposure;
-    if (!Exists(png) || r.seconds > 0) WritePng(png, ToneMapSrgb(radiance, exposure));
+    if (!Exists(png) || r.seconds > 0)
+      background->Run(
+          [png, radiance = std::move(radiance), exposure] { WritePng(png, ToneMapSrgb(radiance, exposure)); });
     LogFileOnly(fmt::format("{}/{}: {}x{}, light {}, {:.2f} s", r.kind, r.name, r.camera.camera.width,
                             r.camera.camera.height, r.light, r.seconds));
   }
@@ -912,17 +942,24 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   // (d) Turntable.
   if (o.turntable_frames > 0) AddTurntableJobs(o, model, file_lights, &jobs, &summary);
 
-  // The export for Blender and other tools (relight/gltf_export.h): cheap, rewritten on every whole run.
-  if (!shard.active()) {
-    summary.exported = WriteExport(output_dir, model.mesh, model.reflectance, photos);
-    RLOG_INFO("export: {} ({} vertices, {} triangles, {} primitives), {} environment maps, albedo scale {:.4g}",
-              summary.exported.model, summary.exported.vertices, summary.exported.triangles,
-              summary.exported.primitives, summary.exported.envmaps.size(), summary.exported.albedo_scale);
-  }
+  // The export for Blender and other tools (relight/gltf_export.h), rewritten on every whole run, and the
+  // interactive viewer: written while the views render (each task sets its own fields of `summary`).
   const VisibilityMaps visibility = LoadVisibilityMaps(in.visibility_dir);
-  if (!shard.active()) WriteViewer(ctx, photos, file_lights, file_maps, visibility, &summary);  // a shard renders only
+  BackgroundWrites background;
+  if (!shard.active()) {  // a shard renders only
+    background.Run([&] {
+      summary.exported = WriteExport(output_dir, model.mesh, model.reflectance, photos);
+      RLOG_INFO("export: {} ({} vertices, {} triangles, {} primitives), {} environment maps, albedo scale {:.4g}",
+                summary.exported.model, summary.exported.vertices, summary.exported.triangles,
+                summary.exported.primitives, summary.exported.envmaps.size(), summary.exported.albedo_scale);
+    });
+    background.Run([&] { WriteViewer(ctx, photos, file_lights, file_maps, visibility, &summary.viewer); });
+    if (!visibility.available)
+      summary.notes.push_back("no interactive viewer: the visibility stage's maps were not given");
+  }
 
-  RenderJobs(ctx, visibility, &jobs, &summary);
+  RenderJobs(ctx, visibility, &jobs, &summary, &background);
+  background.Wait();
   if (shard.active()) return summary;  // the whole run that follows writes the PNGs, animation and summary
 
   WriteTurntableGif(o, output_dir, jobs, &summary);

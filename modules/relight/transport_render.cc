@@ -19,12 +19,17 @@
 
 namespace relight {
 
+// Scratch of the vectorised loops. Eigen treats a buffer's first elements one by one up to its first 32-byte
+// boundary, and the scalar and packet paths round differently (fused multiply-adds, exp and log): buffers aligned
+// alike give every thread, and so any thread count, the same bits.
+using AlignedFloats = std::vector<float, Eigen::aligned_allocator<float>>;
+
 // Sub-sampled texels of a hemi-octahedral visibility map: local direction, solid angle and the visibility
 // texel each lies in (row-major, as solver/transport.cc samples them).
 struct TransportRenderer::TexelTable {
   int resolution = 0;  // of the visibility map
   std::vector<Eigen::Vector3f> dir_local;
-  std::vector<float> dir_x, dir_y, dir_z;  // dir_local's coordinates, for vectorised loops
+  AlignedFloats dir_x, dir_y, dir_z;   // dir_local's coordinates, for vectorised loops
   std::vector<float> solid_angle_cos;  // Ω_j cos θ_j
   std::vector<int> parent;
 
@@ -53,7 +58,7 @@ struct TransportRenderer::TexelTable {
 struct TransportRenderer::CoarseTable {
   int resolution = 0;
   std::vector<Eigen::Vector3f> dir_local;
-  std::vector<float> dir_x, dir_y, dir_z;  // dir_local's coordinates, for vectorised loops
+  AlignedFloats dir_x, dir_y, dir_z;  // dir_local's coordinates, for vectorised loops
   std::vector<float> solid_angle_cos;
   std::vector<std::array<int, 4>> children;
 
@@ -208,7 +213,7 @@ struct PaddedOct {
   // Σ_k Lookup(d_k) ⊙ weight_k over m world directions (any length > 0; structure of arrays), skipping zero
   // weights: OctBilinear's footprints computed 8 at a time into `scratch`, then the texels read per direction.
   Eigen::Vector3f WeightedSum(int m, const float* dx, const float* dy, const float* dz, const float* wr,
-                              const float* wg, const float* wb, std::vector<float>* scratch) const {
+                              const float* wg, const float* wb, AlignedFloats* scratch) const {
     scratch->resize(size_t(4) * m);
     Eigen::Map<Eigen::ArrayXf> u(scratch->data(), m), v(scratch->data() + m, m), fu(scratch->data() + 2 * m, m),
         fv(scratch->data() + 3 * m, m);
@@ -243,14 +248,14 @@ struct PaddedOct {
 // the scratch GlossySum evaluates them in (kept per thread, so that no vertex allocates once it has grown).
 struct GlossyDirections {
   int size = 0;
-  std::vector<float> x, y, z, weight;
-  std::vector<float> cos_h, o_dot_h, cos_mirror, f, r, g, b, wx, wy, wz, footprint;
+  AlignedFloats x, y, z, weight;
+  AlignedFloats cos_h, o_dot_h, cos_mirror, f, r, g, b, wx, wy, wz, footprint;
 
   // Room for `capacity` directions; empties the list.
   void Reset(size_t capacity) {
     size = 0;
     if (x.size() >= capacity) return;
-    for (std::vector<float>* v : {&x, &y, &z, &weight, &cos_h, &o_dot_h, &cos_mirror, &f, &r, &g, &b, &wx, &wy, &wz})
+    for (AlignedFloats* v : {&x, &y, &z, &weight, &cos_h, &o_dot_h, &cos_mirror, &f, &r, &g, &b, &wx, &wy, &wz})
       v->resize(capacity);
   }
   void Add(const Eigen::Vector3f& d, float w) {
@@ -539,7 +544,7 @@ void TransportRenderer::EnsureOccluderVisibility(int surface, const std::vector<
     // The directions' world coordinates and footprints 8 at a time, then the splats one by one (wrapped across
     // the folds only at the map's border).
     const int m = static_cast<int>(table.dir_local.size());
-    thread_local std::vector<float> buffer;
+    thread_local AlignedFloats buffer;
     buffer.resize(size_t(7) * m);
     float *wx = buffer.data(), *wy = wx + m, *wz = wy + m, *fx = wz + m, *fy = fx + m, *x0 = fy + m, *y0 = x0 + m;
     {
