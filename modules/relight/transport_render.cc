@@ -135,28 +135,10 @@ struct TransportRenderer::SurfaceState {
 
 namespace {
 
-// Bilinear footprint of world direction d (any length > 0) on an n x n octahedral map (docs/FORMATS.md):
-// the texel (x0, y0) at the lower corner, in [-1, n-1]² (one step beyond the border where d lies within half a
-// texel of it), and the weights fx, fy of the next column and row.
-void OctBilinear(const Eigen::Vector3f& d, int n, int* x0, int* y0, float* fx, float* fy) {
-  const float l1 = std::abs(d.x()) + std::abs(d.y()) + std::abs(d.z());
-  float px = d.x() / l1, py = d.y() / l1;
-  if (d.z() < 0) {
-    const float ox = (1 - std::abs(py)) * (px >= 0 ? 1.0f : -1.0f);
-    const float oy = (1 - std::abs(px)) * (py >= 0 ? 1.0f : -1.0f);
-    px = ox;
-    py = oy;
-  }
-  const float x = (px * 0.5f + 0.5f) * n - 0.5f, y = (py * 0.5f + 0.5f) * n - 0.5f;
-  const float fx0 = std::floor(x), fy0 = std::floor(y);
-  *x0 = std::clamp(static_cast<int>(fx0), -1, n - 1);
-  *y0 = std::clamp(static_cast<int>(fy0), -1, n - 1);
-  *fx = std::clamp(x - fx0, 0.0f, 1.0f);
-  *fy = std::clamp(y - fy0, 0.0f, 1.0f);
-}
-
-// OctBilinear for m world directions (structure of arrays), 8 at a time: per direction the lower corner's texel
-// (x0, y0) as floats and the weights fx, fy.
+// Bilinear footprints of m world directions (any length > 0; structure of arrays) on an n x n octahedral map
+// (docs/FORMATS.md), 8 at a time: per direction the texel (x0, y0) at the lower corner, as floats in [-1, n-1]
+// (one step beyond the border where the direction lies within half a texel of it), and the weights fx, fy of the
+// next column and row.
 void OctFootprints(int m, const float* dx, const float* dy, const float* dz, int n, float* fx_out, float* fy_out,
                    float* x0_out, float* y0_out) {
   using ConstMap = Eigen::Map<const Eigen::ArrayXf>;
@@ -202,16 +184,9 @@ struct PaddedOct {
       }
   }
 
-  // Bilinear value at world direction d (any length > 0): the reconstruction of solver/transport.cc's splats.
-  Eigen::Vector3f Lookup(const Eigen::Vector3f& d) const {
-    int x0, y0;
-    float fx, fy;
-    OctBilinear(d, n, &x0, &y0, &fx, &fy);
-    return Texels(x0, y0, fx, fy);
-  }
-
-  // Σ_k Lookup(d_k) ⊙ weight_k over m world directions (any length > 0; structure of arrays), skipping zero
-  // weights: OctBilinear's footprints computed 8 at a time into `scratch`, then the texels read per direction.
+  // Σ_k L(d_k) ⊙ weight_k over m world directions (any length > 0; structure of arrays), L the bilinear
+  // reconstruction of solver/transport.cc's splats, skipping zero weights: the footprints computed 8 at a time
+  // into `scratch` (OctFootprints), then the texels read per direction.
   Eigen::Vector3f WeightedSum(int m, const float* dx, const float* dy, const float* dz, const float* wr,
                               const float* wg, const float* wb, AlignedFloats* scratch) const {
     scratch->resize(size_t(4) * m);
@@ -233,10 +208,7 @@ struct PaddedOct {
   }
 
  private:
-  // The bilinear blend of the texels (x0, y0) to (x0 + 1, y0 + 1), x0, y0 in [-1, n-1] (OctBilinear).
-  Eigen::Vector3f Texels(int x0, int y0, float fx, float fy) const {
-    return Texels4(x0, y0, fx, fy).head<3>().matrix();
-  }
+  // The bilinear blend of the texels (x0, y0) to (x0 + 1, y0 + 1), x0, y0 in [-1, n-1] (OctFootprints).
   Eigen::Array4f Texels4(int x0, int y0, float fx, float fy) const {
     const size_t w = n + 2, i00 = size_t(y0 + 1) * w + (x0 + 1);
     return (1 - fy) * ((1 - fx) * rgb[i00] + fx * rgb[i00 + 1]) +
@@ -314,8 +286,9 @@ Eigen::Vector3f GlossySum(const PaddedOct& light, const LocalFrame<float>& frame
                            dirs->b.data(), &dirs->footprint);
 }
 
-// The four texels (row-major indices) and bilinear weights of the footprint OctBilinear gives a direction on an
-// n x n octahedral map, wrapped across the folds: the transpose of PaddedOct::Lookup, as solver/transport.cc splats.
+// The four texels (row-major indices) and bilinear weights of the footprint OctFootprints gives a direction on an
+// n x n octahedral map, wrapped across the folds: the transpose of PaddedOct's reconstruction, as solver/transport.cc
+// splats.
 void OctSplatFootprint(int x0, int y0, float fx, float fy, int n, std::array<int, 4>* index,
                        std::array<float, 4>* weight) {
   const int dx[4] = {0, 1, 0, 1}, dy[4] = {0, 0, 1, 1};
