@@ -131,19 +131,40 @@ Eigen::Vector2d Camera::ImageFromCamera(const Eigen::Vector3d& p) const {
 Eigen::Vector2d Camera::NormalizedFromImage(const Eigen::Vector2d& pixel) const {
   const Eigen::Vector2d distorted((pixel.x() - PrincipalX()) / FocalX(), (pixel.y() - PrincipalY()) / FocalY());
   if (!HasDistortion()) return distorted;
-  // Newton iterations on Distort(n) = distorted, with a numeric Jacobian (as COLMAP does).
+  if (model == "SIMPLE_RADIAL" || model == "RADIAL") {
+    // Radial: distorted = n (1 + k1 r² + k2 r⁴) with r = |n|, so n is distorted scaled by r / |distorted|, r the
+    // root of r (1 + k1 r² + k2 r⁴) = |distorted| that Newton's method reaches from r = |distorted| (the one
+    // inside the distortion's fold, where the derivative stays positive).
+    const double k1 = params[3], k2 = model == "RADIAL" ? params[4] : 0.0, rd = distorted.norm();
+    if (!(rd > 0)) return distorted;
+    double r = rd;
+    for (int iter = 0; iter < 100; ++iter) {
+      const double r2 = r * r;
+      const double slope = 1 + 3 * k1 * r2 + 5 * k2 * r2 * r2;
+      if (!(slope > 0)) break;  // beyond the fold: no unique inverse
+      const double step = (r * (1 + k1 * r2 + k2 * r2 * r2) - rd) / slope;
+      r -= step;
+      if (std::abs(step) <= 1e-15 * r) break;
+    }
+    return distorted * (r / rd);
+  }
+  // Newton iterations on Distort(n) = distorted, with a numeric Jacobian (as COLMAP does), solved in closed form.
   Eigen::Vector2d n = distorted;
   for (int iter = 0; iter < 100; ++iter) {
-    const Eigen::Vector2d f = Distort(n) - distorted;
+    const Eigen::Vector2d at_n = Distort(n);
+    const Eigen::Vector2d f = at_n - distorted;
     if (f.squaredNorm() < 1e-24) break;
     Eigen::Matrix2d jac;
     const double h = 1e-7 * std::max(1.0, n.norm());
     for (int k = 0; k < 2; ++k) {
       Eigen::Vector2d dn = n;
       dn[k] += h;
-      jac.col(k) = (Distort(dn) - Distort(n)) / h;
+      jac.col(k) = (Distort(dn) - at_n) / h;
     }
-    const Eigen::Vector2d step = jac.fullPivLu().solve(f);
+    const double det = jac.determinant();
+    if (!(std::abs(det) > 1e-300)) break;  // singular: the distortion folds here
+    const Eigen::Vector2d step =
+        Eigen::Vector2d(jac(1, 1) * f.x() - jac(0, 1) * f.y(), jac(0, 0) * f.y() - jac(1, 0) * f.x()) / det;
     n -= step;
     if (step.squaredNorm() < 1e-24) break;
   }

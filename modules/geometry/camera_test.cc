@@ -35,8 +35,8 @@ TEST(CameraTest, UnprojectInvertsProjectForAllModels) {
         const Eigen::Vector3d ray = c.RayFromImage({x, y});
         EXPECT_NEAR(ray.norm(), 1.0, 1e-12);
         const Eigen::Vector2d back = c.ImageFromCamera(ray * 3.0);
-        EXPECT_NEAR(back.x(), x, 1e-6) << c.model;
-        EXPECT_NEAR(back.y(), y, 1e-6) << c.model;
+        EXPECT_NEAR(back.x(), x, 1e-9) << c.model;
+        EXPECT_NEAR(back.y(), y, 1e-9) << c.model;
       }
     }
   }

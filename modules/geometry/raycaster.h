@@ -38,7 +38,7 @@ class RayCaster {
 
   RayHit Intersect(const Ray& ray) const;
   bool Occluded(const Ray& ray) const;
-  // Many rays at once (Embree stream API); `coherent` when neighbouring rays are similar.
+  // Many rays at once (Embree stream API, chunks on all threads); `coherent` when neighbouring rays are similar.
   void IntersectStream(const std::vector<Ray>& rays, bool coherent, std::vector<RayHit>* hits) const;
   void OccludedStream(const Ray* rays, size_t count, bool coherent, uint8_t* occluded) const;
 

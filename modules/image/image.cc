@@ -120,7 +120,9 @@ void WriteImage(const std::string& path, const Image& image, const WriteOptions&
   if (!out) RELIGHT_USER_ERROR() << "cannot write '" << path << "': unsupported file extension";
   ImageSpec spec(image.width, image.height, image.channels, type);
   spec.attribute("CompressionQuality", options.jpeg_quality);
-  if (options.type == PixelType::kHalf || options.type == PixelType::kFloat) spec.attribute("compression", "zip");
+  spec.attribute("png:compressionLevel", std::clamp(options.png_compression_level, 0, 9));
+  if (options.type == PixelType::kHalf || options.type == PixelType::kFloat)
+    spec.attribute("compression", options.exr_compression);
   if (options.exif != nullptr) {
     const ImageMetadata& m = *options.exif;
     if (m.focal_length_mm) spec.attribute("Exif:FocalLength", static_cast<float>(*m.focal_length_mm));

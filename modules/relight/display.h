@@ -38,7 +38,7 @@ size_t CountMask(const Image& mask);
 
 // Writes an 8-bit PNG of a [0, 1] image atomically.
 void WritePng(const std::string& path, const Image& image);
-// Writes a float EXR atomically.
+// Writes a float EXR atomically, uncompressed (rendered radiance barely compresses).
 void WriteExr(const std::string& path, const Image& image);
 
 }  // namespace relight

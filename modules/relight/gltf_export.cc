@@ -371,8 +371,9 @@ ExportRecord WriteExport(const std::string& output_dir, const TriangleMesh& mesh
     used.insert(name);
     const std::string rel = "envmaps/" + name + ".exr";
     const EnvMap scaled = photo.envmap.Transformed(Eigen::Matrix3d::Identity(), record.albedo_scale);
-    WriteImage(JoinPath(output_dir, "export/" + rel), scaled.ToLatLong(ExportHeight(photo.envmap), 0),
-               {PixelType::kFloat});
+    const int height = ExportHeight(photo.envmap);
+    WriteImage(JoinPath(output_dir, "export/" + rel),
+               scaled.ToLatLong(height, scaled.CoveringSupersampling(M_PI / height)), {PixelType::kFloat});
     record.envmaps.push_back("export/" + rel);
     list.push_back(PhotoJson(photo, rel));
   }

@@ -702,11 +702,11 @@ VisibilityMaps LoadVisibilityMaps(const std::string& visibility_dir) {
   return maps;
 }
 
-// The interactive viewer (relight/viewer_export.h), under each photo's recovered map and each new map; its page's
-// path in `page`. None without the visibility maps.
+// The interactive viewer (relight/viewer_export.h), under each photo's recovered map and each new map, its diffuse
+// rows `transport`'s; its page's path in `page`.
 void WriteViewer(const RelightContext& ctx, const std::vector<RecoveredPhoto>& photos, const NamedLights& file_lights,
-                 const std::vector<EnvMap>& file_maps, const VisibilityMaps& visibility, std::string* page) {
-  if (!visibility.available) return;
+                 const std::vector<EnvMap>& file_maps, const VisibilityMaps& visibility,
+                 const TransportRenderer& transport, std::string* page) {
   std::vector<std::pair<std::string, EnvMap>> maps;
   for (const RecoveredPhoto& photo : photos) maps.emplace_back(Stem(photo.name), photo.envmap);
   for (size_t m = 0; m < file_lights.size(); ++m) maps.emplace_back(file_lights[m].first, file_maps[m]);
@@ -714,7 +714,7 @@ void WriteViewer(const RelightContext& ctx, const std::vector<RecoveredPhoto>& p
   vo.env_resolution = ctx.model.env_resolution;
   vo.tonemap_percentile = ctx.options.tonemap_percentile;
   const ViewerExport viewer =
-      WriteViewerAssets(JoinPath(ctx.output_dir, "export/viewer"), ctx.model, visibility.data, maps, vo);
+      WriteViewerAssets(JoinPath(ctx.output_dir, "export/viewer"), ctx.model, visibility.data, transport, maps, vo);
   *page = "export/viewer/viewer.html";
   RLOG_INFO("viewer: {}", viewer.BriefReport());
 }
@@ -735,12 +735,13 @@ struct JobRenderer {
   RenderOptions monte_carlo;                     // relight's samples; interreflection as the model was solved
   TransportRenderOptions transport_options;      // relight's pixel samples
   std::unique_ptr<TransportRenderer> transport;  // null: render with `monte_carlo`
-  std::map<const Lighting*, size_t> last_use;    // the last job of each light (the transport renderer's cache)
+  std::map<const Lighting*, size_t> last_use;    // the last job of each light in the render order (its cache)
   int64_t tiles = 0;                             // work units of the jobs to render (progress)
 };
 
 // Sets up the renderer of the jobs that are neither done nor another shard's (relight.renderer).
-JobRenderer PrepareRenderer(const RelightContext& ctx, const VisibilityMaps& visibility, const std::vector<Job>& jobs) {
+JobRenderer PrepareRenderer(const RelightContext& ctx, const VisibilityMaps& visibility, const std::vector<Job>& jobs,
+                            const std::vector<size_t>& order) {
   const RelightOptions& o = ctx.options;
   const RecoveredModel& model = ctx.model;
   JobRenderer renderer;
@@ -751,7 +752,7 @@ JobRenderer PrepareRenderer(const RelightContext& ctx, const VisibilityMaps& vis
   renderer.transport_options.pixel_samples_per_axis = o.pixel_samples_per_axis;
   const bool use_transport = o.renderer == "transport";
   // The last job of each light: what the transport renderer keeps for it is dropped after it.
-  for (size_t k = 0; k < jobs.size(); ++k) {
+  for (size_t k : order) {
     const Job& job = jobs[k];
     if (job.flat || JobDone(job, ctx.output_dir) || JobSkipped(jobs, k, ctx.shard)) continue;
     renderer.tiles += use_transport ? TransportRenderer::NumBands(job.record.camera.camera, renderer.transport_options)
@@ -836,17 +837,31 @@ class BackgroundWrites {
   bool waited_ = false;
 };
 
-// Renders what is missing (a shard: only the radiance and masks of its views), reads back what an earlier run
-// rendered, and writes the PNGs (in `background`); counts both in `summary`.
-void RenderJobs(const RelightContext& ctx, const VisibilityMaps& visibility, std::vector<Job>* jobs,
-                RelightSummary* summary, BackgroundWrites* background) {
+// The order the jobs render in: the turntable first, so that its animation is encoded while the other views
+// render, then the others as listed (their random streams do not depend on the order).
+std::vector<size_t> RenderOrder(const std::vector<Job>& jobs) {
+  std::vector<size_t> order;
+  for (size_t k = 0; k < jobs.size(); ++k)
+    if (jobs[k].record.kind == "turntable") order.push_back(k);
+  for (size_t k = 0; k < jobs.size(); ++k)
+    if (jobs[k].record.kind != "turntable") order.push_back(k);
+  return order;
+}
+
+// Renders what is missing (a shard: only the radiance and masks of its views) in `order`, reads back what an
+// earlier run rendered, and writes the PNGs and the turntable's animated GIF (renders/turntable/turntable.gif,
+// in summary->turntable_gif unless OpenImageIO cannot write one) in `background`; counts both in `summary`.
+void RenderJobs(const RelightContext& ctx, JobRenderer* renderer, const std::vector<size_t>& order,
+                std::vector<Job>* jobs, RelightSummary* summary, BackgroundWrites* background) {
   const RelightOptions& o = ctx.options;
   for (const auto& dir : {"rerender", "heldout", "novel", "albedo", "material", "turntable"})
     EnsureDir(JoinPath(ctx.output_dir, std::string("renders/") + dir));
-  JobRenderer renderer = PrepareRenderer(ctx, visibility, *jobs);
   double turntable_exposure = -1;
-  Progress progress("relight renders", std::max<int64_t>(renderer.tiles, 1));
-  for (size_t k = 0; k < jobs->size(); ++k) {
+  size_t turntable_left = 0;
+  for (const Job& job : *jobs) turntable_left += job.record.kind == "turntable";
+  std::vector<Image> turntable_frames;  // displayed (sRGB), for the animation
+  Progress progress("relight renders", std::max<int64_t>(renderer->tiles, 1));
+  for (size_t k : order) {
     if (JobSkipped(*jobs, k, ctx.shard)) continue;
     Job& job = (*jobs)[k];
     RenderRecord& r = job.record;
@@ -862,7 +877,7 @@ void RenderJobs(const RelightContext& ctx, const VisibilityMaps& visibility, std
       mask = ReadMask(mask_path);
       ++summary->reused;
     } else {
-      const RenderedView view = RenderJob(ctx, k, job, &renderer, &progress);
+      const RenderedView view = RenderJob(ctx, k, job, renderer, &progress);
       radiance = view.radiance;
       mask = view.mask;
       r.seconds = view.seconds;
@@ -879,35 +894,23 @@ void RenderJobs(const RelightContext& ctx, const VisibilityMaps& visibility, std
       exposure = turntable_exposure;
     }
     r.exposure = exposure;
-    if (!Exists(png) || r.seconds > 0)
+    if (r.kind == "turntable") {
+      turntable_frames.push_back(ToneMapSrgb(radiance, exposure));
+      if (!Exists(png) || r.seconds > 0)
+        background->Run([png, srgb = turntable_frames.back()] { WritePng(png, srgb); });
+      if (--turntable_left == 0) {
+        background->Run([&ctx, summary, frames = std::move(turntable_frames)] {
+          const std::string gif = "renders/turntable/turntable.gif";
+          if (WriteAnimatedGif(JoinPath(ctx.output_dir, gif), frames, ctx.options.turntable_fps))
+            summary->turntable_gif = gif;
+        });
+      }
+    } else if (!Exists(png) || r.seconds > 0) {
       background->Run(
           [png, radiance = std::move(radiance), exposure] { WritePng(png, ToneMapSrgb(radiance, exposure)); });
+    }
     LogFileOnly(fmt::format("{}/{}: {}x{}, light {}, {:.2f} s", r.kind, r.name, r.camera.camera.width,
                             r.camera.camera.height, r.light, r.seconds));
-  }
-}
-
-// The turntable's PNG frames as an animated GIF (renders/turntable/turntable.gif), recorded in `summary`, or a
-// note when OpenImageIO cannot write one.
-void WriteTurntableGif(const RelightOptions& o, const std::string& output_dir, const std::vector<Job>& jobs,
-                       RelightSummary* summary) {
-  std::vector<Image> frames;
-  for (const Job& job : jobs)
-    if (job.record.kind == "turntable") frames.push_back(ReadImage(JoinPath(output_dir, job.record.png)));
-  if (frames.empty()) return;
-  for (auto& f : frames)
-    if (f.channels != 3) {
-      Image rgb(f.width, f.height, 3);
-      for (int y = 0; y < f.height; ++y)
-        for (int x = 0; x < f.width; ++x)
-          for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = f.at(x, y, std::min(c, f.channels - 1));
-      f = rgb;
-    }
-  const std::string gif = "renders/turntable/turntable.gif";
-  if (WriteAnimatedGif(JoinPath(output_dir, gif), frames, o.turntable_fps)) {
-    summary->turntable_gif = gif;
-  } else {
-    summary->notes.push_back("OpenImageIO cannot write animated GIFs here: the turntable is its PNG frames only");
   }
 }
 
@@ -929,7 +932,7 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
             model.occluders.num_vertices(), model.radius);
   const RelightContext ctx{o, output_dir, shard, model, scene};
 
-  // The images to make, in this order (their random streams depend on it).
+  // The images to make, listed in this order (their random streams depend on it; RenderOrder renders them).
   std::vector<Job> jobs;
   // (a) Re-renderings of the input photos under their recovered maps (which the export writes too).
   const std::vector<RecoveredPhoto> photos = LoadRecoveredPhotos(o, in, scene, &summary.notes);
@@ -942,9 +945,12 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
   // (d) Turntable.
   if (o.turntable_frames > 0) AddTurntableJobs(o, model, file_lights, &jobs, &summary);
 
-  // The export for Blender and other tools (relight/gltf_export.h), rewritten on every whole run, and the
-  // interactive viewer: written while the views render (each task sets its own fields of `summary`).
   const VisibilityMaps visibility = LoadVisibilityMaps(in.visibility_dir);
+  // The export for Blender and other tools (relight/gltf_export.h), rewritten on every whole run, the interactive
+  // viewer and the images' files are written in background tasks (each sets its own fields of `summary`) while
+  // the views render; what they read is declared before them, so that they end first.
+  JobRenderer renderer;
+  std::unique_ptr<TransportRenderer> viewer_rows;
   BackgroundWrites background;
   if (!shard.active()) {  // a shard renders only
     background.Run([&] {
@@ -953,16 +959,37 @@ RelightSummary RunRelight(const RelightOptions& o, const RelightInputs& in, cons
                 summary.exported.model, summary.exported.vertices, summary.exported.triangles,
                 summary.exported.primitives, summary.exported.envmaps.size(), summary.exported.albedo_scale);
     });
-    background.Run([&] { WriteViewer(ctx, photos, file_lights, file_maps, visibility, &summary.viewer); });
-    if (!visibility.available)
-      summary.notes.push_back("no interactive viewer: the visibility stage's maps were not given");
   }
+  const std::vector<size_t> order = RenderOrder(jobs);
+  renderer = PrepareRenderer(ctx, visibility, jobs, order);
+  // The viewer's diffuse rows and bounce are the transport renderer's (a renderer of their own when the views
+  // render by Monte Carlo): the rows built first, on all threads, so that the viewer reads them while the views
+  // render.
+  const TransportRenderer* rows = nullptr;
+  if (!shard.active() && visibility.available) {
+    if (!renderer.transport) {
+      viewer_rows = std::make_unique<TransportRenderer>(scene, visibility.data, model.env_resolution);
+      EnableModelInterreflection(model, viewer_rows.get(), nullptr);
+    }
+    TransportRenderer* transport = renderer.transport ? renderer.transport.get() : viewer_rows.get();
+    Timer rows_timer;
+    transport->BuildObjectRows();
+    RLOG_INFO("transport rows: {} vertices in {:.1f} s", model.mesh.num_vertices(), rows_timer.Seconds());
+    rows = transport;
+  }
+  if (rows != nullptr)
+    background.Run([&] { WriteViewer(ctx, photos, file_lights, file_maps, visibility, *rows, &summary.viewer); });
+  if (!shard.active() && !visibility.available)
+    summary.notes.push_back("no interactive viewer: the visibility stage's maps were not given");
 
-  RenderJobs(ctx, visibility, &jobs, &summary, &background);
+  RenderJobs(ctx, &renderer, order, &jobs, &summary, &background);
   background.Wait();
   if (shard.active()) return summary;  // the whole run that follows writes the PNGs, animation and summary
 
-  WriteTurntableGif(o, output_dir, jobs, &summary);
+  const bool turntable =
+      std::any_of(jobs.begin(), jobs.end(), [](const Job& j) { return j.record.kind == "turntable"; });
+  if (turntable && summary.turntable_gif.empty())
+    summary.notes.push_back("OpenImageIO cannot write animated GIFs here: the turntable is its PNG frames only");
   for (auto& job : jobs) summary.renders.push_back(std::move(job.record));
   summary.seconds = total.Seconds();
   WriteJsonAtomic(JoinPath(output_dir, "relight_summary.json"), summary.ToJson());

@@ -13,7 +13,7 @@
 namespace relight {
 
 inline const StageInfo kRelightStage{
-    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 9,
+    "relight", "Render the recovered model under recovered, held-out, file, directional and point lights", 10,
     /*shardable=*/true};
 
 struct RelightOptions {

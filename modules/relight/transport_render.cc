@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <utility>
 
 #include "core/error.h"
@@ -303,9 +304,10 @@ void OctSplatFootprint(int x0, int y0, float fx, float fy, int n, std::array<int
 }
 
 // Lambertian rows keep the fewest Haar coefficients holding this share of their energy, at most
-// kRowMaxCoefficients: the inverse stage's defaults (inverse.keep_energy, inverse.max_coefficients).
+// kRowMaxCoefficients (EnergyTruncator, as the inverse stage's rows): its defaults (inverse.keep_energy,
+// inverse.max_coefficients).
 constexpr double kRowKeepEnergy = 0.999;
-constexpr size_t kRowMaxCoefficients = 256;
+constexpr int kRowMaxCoefficients = 256;
 
 }  // namespace
 
@@ -430,12 +432,8 @@ TransportRenderer::LightState& TransportRenderer::Prepare(const Lighting& lighti
         env.rotation_world().isIdentity(0)) {
       oct = env.image();
     } else {
-      // Texel averages, with samples spaced at most one stored pixel apart.
-      const double texel_rad = std::sqrt(4 * M_PI) / n;
-      const double pixel_rad = env.layout() == EnvMap::Layout::kLatLong ? M_PI / env.image().height
-                                                                        : std::sqrt(4 * M_PI) / env.image().width;
-      const int ss = std::clamp(static_cast<int>(std::ceil(texel_rad / pixel_rad)) + 1, 2, 64);
-      oct = env.ToOctahedral(n, ss);
+      // Texel averages (a texel spans sqrt(4 pi) / n on average).
+      oct = env.ToOctahedral(n, env.CoveringSupersampling(std::sqrt(4 * M_PI) / n));
     }
     state->light = PaddedOct(oct);
     for (int c = 0; c < 3; ++c) {
@@ -480,6 +478,19 @@ InterreflectionSummary TransportRenderer::EnableInterreflection(const BounceOpti
   return summary;
 }
 
+void TransportRenderer::BuildObjectRows() {
+  std::vector<uint32_t> all(surfaces_[0]->slot.size());
+  std::iota(all.begin(), all.end(), 0u);
+  EnsureOccluderVisibility(0, all);
+}
+
+TransportRenderer::Row TransportRenderer::ObjectRow(uint32_t vertex) const {
+  const SurfaceState& st = *surfaces_[0];
+  RELIGHT_CHECK(vertex < st.slot.size() && st.slot[vertex] >= 0) << "vertex " << vertex << " has no row yet";
+  const uint32_t first = st.row_first[vertex];
+  return Row{st.row_index.data() + first, st.row_value.data() + first, st.row_size[vertex]};
+}
+
 void TransportRenderer::EnsureOccluderVisibility(int surface, const std::vector<uint32_t>& vertices) {
   SurfaceState& st = *surfaces_[surface];
   std::vector<uint32_t> missing;
@@ -508,7 +519,7 @@ void TransportRenderer::EnsureOccluderVisibility(int surface, const std::vector<
   // Lambertian rows (solver/transport.cc's pixel route for a Lambertian lobe, without the 1/π).
   const TexelTable& table = surface == 0 ? *object_row_texels_ : *occluder_row_texels_;
   const int n = env_resolution_;
-  std::vector<SparseCoefficients> rows(missing.size());
+  std::vector<std::pair<std::vector<uint16_t>, std::vector<float>>> rows(missing.size());
   tbb::parallel_for(size_t(0), missing.size(), [&](size_t q) {
     const uint32_t v = missing[q];
     const uint8_t* vis = st.Map(v);
@@ -547,16 +558,14 @@ void TransportRenderer::EnsureOccluderVisibility(int surface, const std::vector<
       for (int k = 0; k < 4; ++k) pixels[idx[k]] += w * wt[k];
     }
     HaarForward(pixels.data(), n, coeffs.data());
-    rows[q] = KeepEnergy(coeffs.data(), n, kRowKeepEnergy);
-    if (rows[q].size() > kRowMaxCoefficients) rows[q] = KeepLargest(coeffs.data(), n, kRowMaxCoefficients);
+    thread_local EnergyTruncator truncator;
+    truncator.Run(coeffs.data(), n * n, kRowKeepEnergy, kRowMaxCoefficients, &rows[q].first, &rows[q].second);
   });
   for (size_t q = 0; q < missing.size(); ++q) {
     st.row_first[missing[q]] = static_cast<uint32_t>(st.row_index.size());
-    st.row_size[missing[q]] = static_cast<uint32_t>(rows[q].size());
-    for (size_t k = 0; k < rows[q].size(); ++k) {
-      st.row_index.push_back(static_cast<uint16_t>(rows[q].index[k]));
-      st.row_value.push_back(rows[q].value[k]);
-    }
+    st.row_size[missing[q]] = static_cast<uint32_t>(rows[q].first.size());
+    st.row_index.insert(st.row_index.end(), rows[q].first.begin(), rows[q].first.end());
+    st.row_value.insert(st.row_value.end(), rows[q].second.begin(), rows[q].second.end());
   }
 }
 
@@ -794,7 +803,7 @@ RenderedView TransportRenderer::Render(const Lighting& lighting, const Camera& c
         corner[size_t(y - y0) * lattice_width + x] =
             (world_from_cam * camera.RayFromImage(Eigen::Vector2d(x, y))).normalized().cast<float>();
     });
-    rays.assign(size_t(y1 - y0) * width * per_pixel, Ray());
+    rays.resize(size_t(y1 - y0) * width * per_pixel);  // each ray's origin and direction are set below
     tbb::parallel_for(y0, y1, [&](int y) {
       for (int x = 0; x < width; ++x) {
         const Eigen::Vector3f* c0 = corner.data() + size_t(y - y0) * lattice_width + x;

@@ -112,12 +112,29 @@ class TransportRenderer {
   // before rendering: the work kept for lights so far is dropped.
   InterreflectionSummary EnableInterreflection(const BounceOptions& options, bool occluders_bounce);
   bool interreflection() const { return interreflection_; }
+  // The object's bounce samples (visibility/bounce.h) when interreflection() is on.
+  const BounceSamples& object_bounce() const { return bounce_; }
 
   // Progress units Render advances for a camera (its bands of rows).
   static int64_t NumBands(const Camera& camera, const TransportRenderOptions& options);
 
   // Drops what is kept for `lighting` (after its last view).
   void Forget(const Lighting& lighting);
+
+  // Builds the Lambertian rows (file comment) of every object vertex that lacks one, on all threads. Render
+  // builds what a view needs on the way; after this it only reads them, so other threads may read rows with
+  // ObjectRow while views render.
+  void BuildObjectRows();
+  // Object vertex `vertex`'s Lambertian row: its kept Haar coefficients of the env_resolution² global map,
+  // ascending indices, without the 1/π (Σ_j V_j Ω_j cos θ_j: the irradiance weights). Valid until the renderer
+  // is destroyed; BuildObjectRows first.
+  struct Row {
+    const uint16_t* index = nullptr;
+    const float* value = nullptr;
+    uint32_t size = 0;
+  };
+  Row ObjectRow(uint32_t vertex) const;
+  int env_resolution() const { return env_resolution_; }
 
  private:
   struct TexelTable;

@@ -12,10 +12,8 @@
 #include "core/error.h"
 #include "core/fs.h"
 #include "core/json.h"
-#include "geometry/raycaster.h"
 #include "observe/observations.h"
 #include "render/scene.h"
-#include "solver/transport.h"
 #include "sphere/octahedral.h"
 #include "visibility/bounce.h"
 
@@ -134,7 +132,7 @@ Image ViewerOctahedral(const EnvMap& map, int n) {
   if (map.layout() == EnvMap::Layout::kOctahedral && map.image().width == n && map.intensity() == 1.0 &&
       map.rotation_world().isIdentity(0.0))
     return map.image();
-  return map.ToOctahedral(n);
+  return map.ToOctahedral(n, map.CoveringSupersampling(std::sqrt(4 * M_PI) / n));  // as the transport renderer
 }
 
 // The page (inline CSS and JavaScript, WebGL 2). Reads window.RELIGHT_VIEWER_DATA from viewer_data.js.
@@ -552,6 +550,7 @@ ViewerCamera ViewerOrbitCamera(const Eigen::Vector3d& center_world, double radiu
 }
 
 ViewerExport WriteViewerAssets(const std::string& dir, const RecoveredModel& model, const VisibilityData& visibility,
+                               const TransportRenderer& transport,
                                const std::vector<std::pair<std::string, EnvMap>>& maps, const ViewerOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   options.Check();
@@ -599,28 +598,30 @@ ViewerExport WriteViewerAssets(const std::string& dir, const RecoveredModel& mod
     buffers.Add("indices", "u32", idx);
   }
 
-  // Diffuse: the solver's Lambertian transport rows (vertex normal only), top k, int16 with a per-vertex scale.
+  // Diffuse: the transport renderer's Lambertian rows, top k, int16 with a per-vertex scale.
   {
-    TransportOptions to;
-    to.basis = {BrdfLobe{}};
-    to.env_resolution = n;
-    to.keep_energy = 1.0;
-    to.max_coefficients = k;
-    to.footprint_scale = 0;
-    ObservationSet none;
-    none.num_vertices = static_cast<uint32_t>(nv);
-    const TransportStore store = BuildTransport(mesh, visibility, none, to);
+    RELIGHT_CHECK_EQ(transport.env_resolution(), n);
+    const float kInvPi = static_cast<float>(1.0 / M_PI);
+    std::vector<std::pair<float, uint16_t>> ranked;  // (-|value|, position in the row): ascending = largest first
     std::vector<uint16_t> index(nv * k, 0);
     std::vector<int16_t> value(nv * k, 0);
     std::vector<float> scale(nv, 0.0f), diffuse(nv * 3, 0.0f);
     for (size_t v = 0; v < nv; ++v) {
-      const TransportStore::Row row = store.Get(0, static_cast<uint32_t>(v), 0);
-      float largest = 0;
-      for (uint32_t q = 0; q < row.size; ++q) largest = std::max(largest, std::abs(row.value[q]));
+      const TransportRenderer::Row row = transport.ObjectRow(static_cast<uint32_t>(v));
+      ranked.clear();
+      float largest = 0;  // of the row with the 1/π the page's term has
+      for (uint32_t q = 0; q < row.size; ++q) {
+        ranked.emplace_back(-std::abs(row.value[q]), static_cast<uint16_t>(q));
+        largest = std::max(largest, std::abs(row.value[q]) * kInvPi);
+      }
+      const size_t kept = std::min(ranked.size(), size_t(k));
+      std::nth_element(ranked.begin(), ranked.begin() + kept, ranked.end());
+      std::sort(ranked.begin(), ranked.begin() + kept,
+                [](const auto& a, const auto& b) { return a.second < b.second; });  // ascending indices
       scale[v] = largest / 32767.0f;
-      for (uint32_t q = 0; q < row.size && q < uint32_t(k); ++q) {
-        index[v * k + q] = row.index[q];
-        value[v * k + q] = static_cast<int16_t>(std::lround(row.value[q] / scale[v]));
+      for (size_t q = 0; q < kept; ++q) {
+        index[v * k + q] = row.index[ranked[q].second];
+        value[v * k + q] = static_cast<int16_t>(std::lround(row.value[ranked[q].second] * kInvPi / scale[v]));
       }
       for (int b = 0; b < num_lobes; ++b)
         if (refl.basis[b].model == BrdfModel::kLambertian)
@@ -636,12 +637,8 @@ ViewerExport WriteViewerAssets(const std::string& dir, const RecoveredModel& mod
   // their weights (visibility/bounce.h), the occluders blocking; the page gathers the diffuse exit radiance.
   meta["bounce_pairs"] = 0;
   if (model.bounce_rays_per_side > 0) {
-    std::vector<const TriangleMesh*> meshes = {&mesh};
-    if (!model.occluders.empty()) meshes.push_back(&model.occluders);
-    const RayCaster caster(meshes);
-    BounceOptions bo;
-    bo.rays_per_side = model.bounce_rays_per_side;
-    const BounceSamples bounce = ComputeBounceSamples(mesh, caster, bo);
+    RELIGHT_CHECK(transport.interreflection()) << "the viewer's transport renderer lacks the model's bounce";
+    const BounceSamples& bounce = transport.object_bounce();
     meta["bounce_pairs"] = bounce.hit_vertex.size();
     buffers.Add("bounce_first", "u32", bounce.first);
     buffers.Add("bounce_source", "u32", bounce.hit_vertex);

@@ -4,8 +4,8 @@
 //
 // What the page computes per vertex v seen from world direction w_o (all linear radiance):
 //   diffuse  ρ_v,diffuse ⊙ (T_v · H(L_θ))   T_v: the vertex's Lambertian transport row in the Haar basis of
-//            the env_resolution² octahedral map, exactly the solver's (solver/transport.h, pixel route,
-//            vertex normal only), truncated to its top_k largest coefficients; H(L_θ) the Haar transform of
+//            the env_resolution² octahedral map, exactly the transport renderer's (relight/transport_render.h),
+//            truncated to its top_k largest coefficients; H(L_θ) the Haar transform of
 //            the map turned by θ about +Z, resampled at the texel centres (bilinear, in the page);
 //   glossy   Σ_b ρ_v,b ⊙ A_b(cos_o) · P_b(R_z(−θ) r) · V_v(r) for every non-Lambertian lobe b (split-sum
 //            approximation, Karis 2013): r the mirror of w_o about the normal; P_b the map prefiltered with
@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "relight/relight.h"
+#include "relight/transport_render.h"
 #include "sphere/envmap.h"
 #include "visibility/visibility.h"
 
@@ -68,10 +69,15 @@ struct ViewerExport {
 };
 
 // Writes viewer.html and viewer_data.js into `dir` (created when missing), each atomically. `visibility`
-// holds one map per vertex of model.mesh (which needs normals); `maps` are (name, map) pairs shown in the
+// holds one map per vertex of model.mesh (which needs normals); `transport` renders the model (its object
+// surface model.mesh, env_resolution options.env_resolution), holds every vertex's row
+// (TransportRenderer::BuildObjectRows), which the page's diffuse term takes, and the model's bounce
+// (EnableModelInterreflection), which the page gathers; `maps` are (name, map) pairs shown in the
 // page's selector in this order: an octahedral map of env_resolution side without rotation or scaling is
-// taken texel for texel, any other is resampled to texel averages (EnvMap::ToOctahedral).
+// taken texel for texel, any other is resampled to texel averages as the transport renderer does
+// (EnvMap::ToOctahedral, EnvMap::CoveringSupersampling).
 ViewerExport WriteViewerAssets(const std::string& dir, const RecoveredModel& model, const VisibilityData& visibility,
+                               const TransportRenderer& transport,
                                const std::vector<std::pair<std::string, EnvMap>>& maps, const ViewerOptions& options);
 
 // The page's orbit camera (URL parameters az, el, dist, fov; docs/FORMATS.md): it looks at `center` from

@@ -199,128 +199,6 @@ struct VertexTexels {
   std::vector<std::array<float, 4>> splat_weight;
 };
 
-// The fewest largest-magnitude coefficients holding `fraction` of the energy,
-// at most `cap`, as ascending indices. Ranked by (energy descending, index
-// ascending), a strict order, so the kept set is unique. The count is found
-// in two steps, O(n) in all: a histogram of the energies by their float
-// exponent (one octave per bucket) names the octave where the running sum
-// from the top reaches the target; everything above it is kept, everything
-// below dropped, and only that octave's coefficients go through the
-// selection on partial sums (each round an nth_element over the still
-// undecided part, which halves it). The kept ones are emitted by a scan in
-// index order. Sorting the candidates (an earlier version) dominated the
-// build, and so did the selection over all of them (the version before this).
-struct Truncator {
-  // Per non-zero coefficient one key that sorts like the ranking: the energy's
-  // bits (a non-negative float orders like its bit pattern) above the
-  // complemented index, so one integer comparison ranks.
-  std::vector<uint64_t> nz, scratch;
-  std::vector<uint8_t> kept;  // per coefficient: 1 when kept
-  std::array<double, 256> octave_energy{};
-  std::array<uint32_t, 256> octave_count{};
-
-  static float Energy(uint64_t key) {
-    const uint32_t bits = static_cast<uint32_t>(key >> 16);
-    float e;
-    std::memcpy(&e, &bits, sizeof e);
-    return e;
-  }
-  static uint16_t Index(uint64_t key) { return static_cast<uint16_t>(0xFFFFu - (key & 0xFFFFu)); }
-  // The float exponent field of the energy: keys of a higher octave rank higher.
-  static int Octave(uint64_t key) { return static_cast<int>(key >> (16 + 23)) & 0xFF; }
-
-  void Run(const float* coeffs, int size, double fraction, int cap, std::vector<uint16_t>* index,
-           std::vector<float>* value) {
-    nz.clear();
-    double total = 0;
-    for (int k = 0; k < size; ++k) {
-      if (coeffs[k] == 0.0f) continue;
-      const float e = coeffs[k] * coeffs[k];
-      uint32_t bits;
-      std::memcpy(&bits, &e, sizeof bits);
-      nz.push_back((uint64_t(bits) << 16) | (0xFFFFu - static_cast<uint32_t>(k)));
-      total += e;
-    }
-    index->clear();
-    value->clear();
-    if (nz.empty()) return;
-    const size_t limit = static_cast<size_t>(std::max(0, cap));
-    if (fraction >= 1.0 && nz.size() <= limit) {  // everything
-      index->reserve(nz.size());
-      value->reserve(nz.size());
-      for (uint64_t key : nz) {
-        index->push_back(Index(key));
-        value->push_back(coeffs[Index(key)]);
-      }
-      return;
-    }
-    const std::greater<uint64_t> larger;
-    const double target = fraction * total;
-    // Invariant: [0, lo) are the lo highest ranked, with sum `acc` < target;
-    // [lo, hi) the next ones; acc + their sum >= target (or hi = n).
-    size_t keep = 0;
-    if (target > 0) {
-      // Energy and count per octave, then the octave where the sum from the top reaches the target.
-      int top = 0, bottom = 255;  // octaves in use
-      for (uint64_t key : nz) {
-        const int oct = Octave(key);
-        top = std::max(top, oct);
-        bottom = std::min(bottom, oct);
-        octave_energy[oct] += Energy(key);
-        ++octave_count[oct];
-      }
-      int boundary = top;
-      double above = 0;  // energy of the octaves above `boundary`
-      size_t count_above = 0;
-      while (boundary > bottom && above + octave_energy[boundary] < target) {
-        above += octave_energy[boundary];
-        count_above += octave_count[boundary];
-        --boundary;
-      }
-      // Keys above the boundary octave first, then the boundary's, then the rest.
-      scratch.resize(nz.size());
-      size_t hi_pos = 0, mid_pos = count_above, lo_pos = count_above + octave_count[boundary];
-      for (uint64_t key : nz) {
-        const int oct = Octave(key);
-        scratch[oct > boundary ? hi_pos++ : oct == boundary ? mid_pos++ : lo_pos++] = key;
-      }
-      nz.swap(scratch);
-      size_t lo = count_above, hi = count_above + octave_count[boundary];
-      for (int q = bottom; q <= top; ++q) {  // cleared for the next row
-        octave_energy[q] = 0;
-        octave_count[q] = 0;
-      }
-      double acc = above;
-      while (hi - lo > 1) {
-        const size_t mid = lo + (hi - lo) / 2;
-        std::nth_element(nz.begin() + lo, nz.begin() + mid, nz.begin() + hi, larger);
-        double part = 0;
-        for (size_t q = lo; q < mid; ++q) part += Energy(nz[q]);
-        if (acc + part >= target) {
-          hi = mid;
-        } else {
-          acc += part;
-          lo = mid;
-        }
-      }
-      keep = hi;
-    }
-    if (keep > limit) {
-      std::nth_element(nz.begin(), nz.begin() + limit, nz.begin() + keep, larger);
-      keep = limit;
-    }
-    kept.assign(size, 0);
-    for (size_t q = 0; q < keep; ++q) kept[Index(nz[q])] = 1;
-    index->reserve(keep);
-    value->reserve(keep);
-    for (int k = 0; k < size; ++k) {
-      if (!kept[k]) continue;
-      index->push_back(static_cast<uint16_t>(k));
-      value->push_back(coeffs[k]);
-    }
-  }
-};
-
 void Splat(const Eigen::Vector3f& dir_world, int n, std::array<uint16_t, 4>* idx, std::array<float, 4>* w) {
   const Eigen::Vector2d st = OctEncode(dir_world.cast<double>());
   const double x = st.x() * n - 0.5, y = st.y() * n - 0.5;
@@ -437,7 +315,7 @@ struct BlockScratch {
   std::vector<int> support;   // ... and their texels
   std::vector<FootprintSample> samples;
   std::vector<float> sample_view;  // GGX: a sample's weight times its GgxViewFactor
-  Truncator truncator;
+  EnergyTruncator truncator;
 };
 
 // A view-dependent lobe's constants for the texel loops.

@@ -195,6 +195,12 @@ int EnvMap::AutoSupersampling(double target_pixel_rad) const {
   return std::clamp(int(std::ceil(8.0 * target_pixel_rad / stored_rad)), 2, 64);
 }
 
+int EnvMap::CoveringSupersampling(double target_pixel_rad) const {
+  // A stored pixel's mean angular size: lat-long pi / h, octahedral sqrt(4 pi) / n.
+  const double stored_rad = layout_ == Layout::kLatLong ? M_PI / image_.height : std::sqrt(4 * M_PI) / image_.width;
+  return std::clamp(static_cast<int>(std::ceil(target_pixel_rad / stored_rad)) + 1, 2, 64);
+}
+
 Image EnvMap::ToLatLong(int height, int supersampling) const {
   RELIGHT_CHECK_GT(height, 0);
   if (supersampling == 0) supersampling = AutoSupersampling(M_PI / height);

@@ -62,6 +62,10 @@ class EnvMap {
   // solid-angle-weighted average of Lookup over the texel (supersampling^2
   // samples; 0 = automatic as for ToLatLong).
   Image ToOctahedral(int n, int supersampling = 0) const;
+  // The least supersampling (2 to 64 per axis) whose samples lie at most one stored pixel apart over target
+  // pixels spanning `target_pixel_rad` radians: enough for a texel average of the bilinear reading, far fewer
+  // samples than the automatic factor (which resolves each stored pixel eightfold).
+  int CoveringSupersampling(double target_pixel_rad) const;
 
   // Rotated and scaled copy, new(d) = intensity * old(R^-1 d): a feature seen
   // in direction d0 before is seen in direction R d0 afterwards. No resampling.

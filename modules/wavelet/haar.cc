@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <numeric>
 #include <type_traits>
 
@@ -219,6 +220,111 @@ BasicSparseCoefficients<T> KeepEnergy(const T* coeffs, int n, double fraction) {
     kept.push_back(k);
   }
   return Gather(coeffs, n, std::move(kept));
+}
+
+namespace {
+// EnergyTruncator's key: c² (its float bits) above the complemented index.
+float KeyEnergy(uint64_t key) {
+  const uint32_t bits = static_cast<uint32_t>(key >> 16);
+  float e;
+  std::memcpy(&e, &bits, sizeof e);
+  return e;
+}
+uint16_t KeyIndex(uint64_t key) { return static_cast<uint16_t>(0xFFFFu - (key & 0xFFFFu)); }
+// The float exponent field of the energy: keys of a higher octave rank higher.
+int KeyOctave(uint64_t key) { return static_cast<int>(key >> (16 + 23)) & 0xFF; }
+}  // namespace
+
+void EnergyTruncator::Run(const float* coeffs, int size, double fraction, int cap, std::vector<uint16_t>* index,
+                          std::vector<float>* value) {
+  RELIGHT_CHECK(size >= 0 && size <= 65536) << size << " coefficients: the kept indices are 16-bit";
+  nz_.clear();
+  double total = 0;
+  for (int k = 0; k < size; ++k) {
+    if (coeffs[k] == 0.0f) continue;
+    const float e = coeffs[k] * coeffs[k];
+    uint32_t bits;
+    std::memcpy(&bits, &e, sizeof bits);
+    nz_.push_back((uint64_t(bits) << 16) | (0xFFFFu - static_cast<uint32_t>(k)));
+    total += e;
+  }
+  index->clear();
+  value->clear();
+  if (nz_.empty()) return;
+  const size_t limit = static_cast<size_t>(std::max(0, cap));
+  if (fraction >= 1.0 && nz_.size() <= limit) {  // everything
+    index->reserve(nz_.size());
+    value->reserve(nz_.size());
+    for (uint64_t key : nz_) {
+      index->push_back(KeyIndex(key));
+      value->push_back(coeffs[KeyIndex(key)]);
+    }
+    return;
+  }
+  const std::greater<uint64_t> larger;
+  const double target = fraction * total;
+  // Invariant: [0, lo) are the lo highest ranked, with sum `acc` < target;
+  // [lo, hi) the next ones; acc + their sum >= target (or hi = n).
+  size_t keep = 0;
+  if (target > 0) {
+    // Energy and count per octave, then the octave where the sum from the top reaches the target.
+    int top = 0, bottom = 255;  // octaves in use
+    for (uint64_t key : nz_) {
+      const int oct = KeyOctave(key);
+      top = std::max(top, oct);
+      bottom = std::min(bottom, oct);
+      octave_energy_[oct] += KeyEnergy(key);
+      ++octave_count_[oct];
+    }
+    int boundary = top;
+    double above = 0;  // energy of the octaves above `boundary`
+    size_t count_above = 0;
+    while (boundary > bottom && above + octave_energy_[boundary] < target) {
+      above += octave_energy_[boundary];
+      count_above += octave_count_[boundary];
+      --boundary;
+    }
+    // Keys above the boundary octave first, then the boundary's, then the rest.
+    scratch_.resize(nz_.size());
+    size_t hi_pos = 0, mid_pos = count_above, lo_pos = count_above + octave_count_[boundary];
+    for (uint64_t key : nz_) {
+      const int oct = KeyOctave(key);
+      scratch_[oct > boundary ? hi_pos++ : oct == boundary ? mid_pos++ : lo_pos++] = key;
+    }
+    nz_.swap(scratch_);
+    size_t lo = count_above, hi = count_above + octave_count_[boundary];
+    for (int q = bottom; q <= top; ++q) {  // cleared for the next row
+      octave_energy_[q] = 0;
+      octave_count_[q] = 0;
+    }
+    double acc = above;
+    while (hi - lo > 1) {
+      const size_t mid = lo + (hi - lo) / 2;
+      std::nth_element(nz_.begin() + lo, nz_.begin() + mid, nz_.begin() + hi, larger);
+      double part = 0;
+      for (size_t q = lo; q < mid; ++q) part += KeyEnergy(nz_[q]);
+      if (acc + part >= target) {
+        hi = mid;
+      } else {
+        acc += part;
+        lo = mid;
+      }
+    }
+    keep = hi;
+  }
+  if (keep > limit) {
+    std::nth_element(nz_.begin(), nz_.begin() + limit, nz_.begin() + keep, larger);
+    keep = limit;
+  }
+  kept_.assign(size, 0);
+  for (size_t q = 0; q < keep; ++q) kept_[KeyIndex(nz_[q])] = 1;
+  index->reserve(keep);
+  value->reserve(keep);
+  for (int k = 0; k < size; ++k) {
+    if (!kept_[k]) continue;
+    index->push_back(static_cast<uint16_t>(k));
+    value->push_back(coeffs[k]);
+  }
 }
 
 #define RELIGHT_INSTANTIATE_HAAR(T)                                              \

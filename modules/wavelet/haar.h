@@ -26,6 +26,7 @@
 // The transform is orthogonal: sum_pixels f g = sum_k F_k G_k.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -87,5 +88,27 @@ BasicSparseCoefficients<T> KeepEnergy(const T* coeffs, int n, double fraction);
 // Indices sorted by decreasing magnitude (ties by lower index), for error-vs-k curves.
 template <typename T>
 std::vector<uint32_t> IndicesByMagnitude(const T* coeffs, int n);
+
+// Truncates float coefficient vectors of up to 65,536 entries (a transport row: 32² to 256² Haar coefficients) to
+// the fewest largest ones holding `fraction` of the energy, at most `cap`, as ascending indices. Ranked by (c²
+// descending, index ascending), a strict order, so the kept set is unique; the same set as KeepEnergy followed by
+// KeepLargest but for ties of c² between different |c|. O(n): a histogram of the energies by their float exponent
+// (one octave per bucket) names the octave where the running sum from the top reaches the target; the octaves
+// above it are kept, those below dropped, and only that octave's coefficients go through a selection on partial
+// sums (each round an nth_element over the still undecided part, halving it). Sorting the candidates instead
+// dominated the transport builds. Keeps its scratch between calls: one object per thread.
+class EnergyTruncator {
+ public:
+  void Run(const float* coeffs, int size, double fraction, int cap, std::vector<uint16_t>* index,
+           std::vector<float>* value);
+
+ private:
+  // Per non-zero coefficient one key that sorts like the ranking: the energy's bits (a non-negative float orders
+  // like its bit pattern) above the complemented index, so one integer comparison ranks.
+  std::vector<uint64_t> nz_, scratch_;
+  std::vector<uint8_t> kept_;  // per coefficient: 1 when kept
+  std::array<double, 256> octave_energy_{};
+  std::array<uint32_t, 256> octave_count_{};
+};
 
 }  // namespace relight

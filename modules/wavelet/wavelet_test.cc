@@ -153,6 +153,53 @@ TEST(HaarTest, FloatOrderEqualsTheComparisonSort) {
   }
 }
 
+// EnergyTruncator against a sort: the kept indices (ascending) are the first q of the ranking (c² descending,
+// index ascending) where q is the fewest whose energy reaches the fraction, at most the cap; the values are the
+// input's. Coefficients spread over many octaves, with zeros and ties, for the map sizes the transport uses.
+TEST(HaarTest, EnergyTruncatorKeepsTheFewestLargestHoldingTheEnergy) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> mantissa(-1.0f, 1.0f);
+  std::uniform_int_distribution<int> octave(-20, 4), kind(0, 9);
+  EnergyTruncator truncator;
+  std::vector<uint16_t> index;
+  std::vector<float> value;
+  for (int n : {32, 64, 256}) {
+    const size_t size = size_t(n) * n;
+    for (int trial = 0; trial < 4; ++trial) {
+      std::vector<float> c(size);
+      for (float& v : c) {
+        const int k = kind(rng);  // 20 % zeros, 10 % a tied value, the rest spread over 25 octaves
+        v = k < 2 ? 0.0f : k == 2 ? 0.125f : std::ldexp(mantissa(rng), octave(rng));
+      }
+      std::vector<std::pair<float, int>> ranked;  // (-c², index): ascending = the ranking
+      double total = 0;
+      for (size_t k = 0; k < size; ++k) {
+        if (c[k] == 0.0f) continue;
+        ranked.emplace_back(-(c[k] * c[k]), static_cast<int>(k));
+        total += double(c[k] * c[k]);
+      }
+      std::sort(ranked.begin(), ranked.end());
+      for (double fraction : {0.5, 0.99, 0.999, 1.0}) {
+        for (int cap : {1, 64, 256, 1 << 16}) {
+          SCOPED_TRACE(::testing::Message()
+                       << "n " << n << " trial " << trial << " fraction " << fraction << " cap " << cap);
+          size_t q = 0;
+          double acc = 0;
+          while (q < ranked.size() && acc < fraction * total) acc -= double(ranked[q++].first);
+          if (fraction >= 1) q = ranked.size();  // every non-zero, even those below the sum's rounding
+          q = std::min(q, size_t(cap));
+          std::vector<uint16_t> expected;
+          for (size_t k = 0; k < q; ++k) expected.push_back(static_cast<uint16_t>(ranked[k].second));
+          std::sort(expected.begin(), expected.end());
+          truncator.Run(c.data(), static_cast<int>(size), fraction, cap, &index, &value);
+          ASSERT_EQ(index, expected);
+          for (size_t k = 0; k < index.size(); ++k) ASSERT_EQ(value[k], c[index[k]]);
+        }
+      }
+    }
+  }
+}
+
 TEST(TripleProductTest, DenseEqualsBruteForce) {
   std::mt19937 rng(3);
   for (int n : {1, 2, 4, 8, 16, 32, 64}) {
