@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <cstring>
@@ -106,33 +107,37 @@ bool RayCaster::Occluded(const Ray& ray) const {
 void RayCaster::IntersectStream(const std::vector<Ray>& rays, bool coherent, std::vector<RayHit>* hits) const {
   hits->resize(rays.size());
   // Chunks of the rays traced on all threads, each as one Embree stream (a ray's hit does not depend on the others).
+  // Isolated: a caller inside a parallel loop with per-thread scratch (visibility/bounce.cc) must not have its
+  // thread take another of its own iterations while it waits here.
   constexpr size_t kChunk = 4096;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), kChunk), [&](const tbb::blocked_range<size_t>& range) {
-    thread_local std::vector<RTCRayHit> rh;
-    const size_t first = range.begin(), n = range.size();
-    rh.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-      FillRay(rays[first + i], &rh[i].ray);
-      rh[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
-      rh[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    }
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-    rtcIntersect1M(impl_->scene, &context, rh.data(), static_cast<unsigned>(n), sizeof(RTCRayHit));
-    for (size_t i = 0; i < n; ++i) {
-      RayHit& h = (*hits)[first + i];
-      h = RayHit();
-      if (rh[i].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
-      h.hit = true;
-      h.t = rh[i].ray.tfar;
-      h.geom_id = rh[i].hit.geomID;
-      h.prim_id = rh[i].hit.primID;
-      h.u = rh[i].hit.u;
-      h.v = rh[i].hit.v;
-      h.point = rays[first + i].origin + h.t * rays[first + i].dir;
-      h.normal = meshes_[h.geom_id]->FaceNormal(static_cast<int>(h.prim_id));
-    }
+  tbb::this_task_arena::isolate([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), kChunk), [&](const tbb::blocked_range<size_t>& range) {
+      thread_local std::vector<RTCRayHit> rh;
+      const size_t first = range.begin(), n = range.size();
+      rh.resize(n);
+      for (size_t i = 0; i < n; ++i) {
+        FillRay(rays[first + i], &rh[i].ray);
+        rh[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      }
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+      rtcIntersect1M(impl_->scene, &context, rh.data(), static_cast<unsigned>(n), sizeof(RTCRayHit));
+      for (size_t i = 0; i < n; ++i) {
+        RayHit& h = (*hits)[first + i];
+        h = RayHit();
+        if (rh[i].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+        h.hit = true;
+        h.t = rh[i].ray.tfar;
+        h.geom_id = rh[i].hit.geomID;
+        h.prim_id = rh[i].hit.primID;
+        h.u = rh[i].hit.u;
+        h.v = rh[i].hit.v;
+        h.point = rays[first + i].origin + h.t * rays[first + i].dir;
+        h.normal = meshes_[h.geom_id]->FaceNormal(static_cast<int>(h.prim_id));
+      }
+    });
   });
 }
 
