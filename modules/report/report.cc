@@ -464,7 +464,9 @@ class ReportBuilder {
            "photos: white where observations receive light from it, black where only the priors set it. Below "
            "it, the sun of a daylight model (sky, sun, ground) fitted to the seen part, and how much of the seen "
            "part's variation that model explains: low for light that is not open sky (walls, a courtyard, an "
-           "interior), or for a map whose seen part is noise; its sun then means little.</p>\n";
+           "interior), or for a map whose seen part is noise; its sun then means little. Last, which prior "
+           "filled the unseen directions: the daylight model where it explains most of that variation (from "
+           "70%), the smoothness prior where it explains little (to 30%), a blend of the two between.</p>\n";
     }
     std::vector<std::vector<std::string>> rows;
     const int oct_w = std::max(96, o_.tile_px / 2);
@@ -504,6 +506,16 @@ class ReportBuilder {
             if (sun.contains("daylight_explained_variation") && sun["daylight_explained_variation"].is_number())
               cell += "; the daylight model explains " +
                       html::Number(100 * Num(sun, "daylight_explained_variation"), 0) + "% of the seen part";
+          }
+          if (it->second.contains("daylight_fill") && it->second["daylight_fill"].is_number()) {
+            const double fill = it->second["daylight_fill"].get<double>();
+            cell += "<br>unseen directions filled by the ";
+            if (fill >= 0.995)
+              cell += "daylight model";
+            else if (fill <= 0.005)
+              cell += "smoothness prior";
+            else
+              cell += "daylight model (" + html::Number(100 * fill, 0) + "%) and the smoothness prior";
           }
           row.push_back(cell);
         }

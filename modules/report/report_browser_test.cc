@@ -189,7 +189,8 @@ TEST(ReportBrowser, TinySyntheticChainPageLoadsInHeadlessChromium) {
       source, match,
       std::regex("<br>[0-9]+ of 256(, detail to [0-9]+&deg;|, the mean only)<br>sun [0-9]+&deg; high, azimuth "
                  "[0-9]+&deg; from \\+X, [0-9]+% of the light on the ground; the daylight model explains [0-9]+% of "
-                 "the seen part</td>")))
+                 "the seen part<br>unseen directions filled by the (daylight model|smoothness prior|"
+                 "daylight model \\([0-9]+%\\) and the smoothness prior)</td>")))
       << "the env-map table's 'determined by the photos' column, with the fitted sun and how well it fits";
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.svg"));
   EXPECT_TRUE(fs::exists(dir / "ws/report/charts/convergence.csv"));

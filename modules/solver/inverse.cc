@@ -929,6 +929,7 @@ Json WritePhotoLighting(const InverseOptions& o, const ObservedPhoto& photo, con
                 {"envmap_oct", "envmaps/" + stem + "_oct.exr"},
                 {"envmap_latlong", "envmaps/" + stem + "_latlong.exr"},
                 {"brightest_direction_world", {dir.x(), dir.y(), dir.z()}}};
+  if (photo.index < lighting.daylight_fill.size()) entry["daylight_fill"] = lighting.daylight_fill[photo.index];
   if (o.lighting_basis == "haar") {
     const size_t used = HaarCoefficients99(oct, n_out);
     entry["haar_coefficients_99"] = used;

@@ -12,7 +12,7 @@
 namespace relight {
 
 inline const StageInfo kInverseStage{
-    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 17};
+    "inverse", "Inverse rendering: one environment map per photo and per-vertex reflectance (bilinear solve)", 18};
 
 struct InverseOptions {
   // Lighting representation.
@@ -167,9 +167,11 @@ struct InverseOptions {
         .Range(0, 1)
         .Advanced();
     t->Add("light_prior", &light_prior,
-           "What fills the directions the photos say little about: natural (a fitted daylight model: "
-           "sky, sun, a ground lit by them; under a clear sky the sun is solved as a light of its own, "
-           "sharper than a texel) or smooth (a flat fill from the seen directions). Choose smooth for "
+           "What fills the directions the photos say little about: natural (a daylight model fitted "
+           "to what the photos determine: sky, sun, a ground lit by them, weighted per map by how much "
+           "of the seen part's variation it explains, blending into the smooth fill for maps it does "
+           "not describe; under a clear sky the sun is solved as a light of its own, sharper than a "
+           "texel) or smooth (a flat fill from the seen directions, for every map). Choose smooth for "
            "indoor, studio or lab light.")
         .Choices({"natural", "smooth"})
         .OnlyWhen("lighting_basis", {"haar"});

@@ -256,6 +256,13 @@ Eigen::MatrixXd SmoothnessRegularizer(const LightingState& lighting, int n) {
 
 }  // namespace
 
+double DaylightFillWeight(double explained_variation) {
+  const double t = std::clamp(
+      (explained_variation - kDaylightFillExplainedFrom) / (kDaylightFillExplainedTo - kDaylightFillExplainedFrom), 0.0,
+      1.0);
+  return t * t * (3 - 2 * t);  // smoothstep: no kink at either end
+}
+
 LightingStepResult SolveLighting(const TransportStore& transport, const ObservationSet& observations,
                                  const std::vector<std::vector<uint32_t>>& subset, const ReflectanceState& reflectance,
                                  const InverseOptions& options, LightingState* lighting, int solve_resolution) {
@@ -274,6 +281,8 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
   result.qp_iterations.assign(num_photos, 0);
 
   const Eigen::MatrixXd regularizer = SmoothnessRegularizer(*lighting, n);  // per unit weight
+  const bool natural_option = haar && options.light_prior == "natural";
+  if (natural_option) lighting->daylight_fill.assign(lighting->values.size(), 1.0f);
   Eigen::MatrixXd sh_constraint;
   if (!haar) {
     const int nc = 32;
@@ -357,7 +366,6 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
       // The natural-light prior: the priors act on the map's departure from a daylight model fitted to what
       // the photos determine of the current map (each texel weighted by the photos' share of its curvature),
       // and a weak pull towards the model fills the directions no observation sees with its sky and ground.
-      const bool natural = haar && options.light_prior == "natural";
       // The whole map, the warm start's sun put back as the rows see it (its splat): where the sun's direction is
       // read, and the start when the sun is not split out this time. The daylight model is fitted to the map as
       // it is exported, the sun in the one texel around its direction, as the model's sun term describes it.
@@ -380,13 +388,22 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         return block == 1 && model.explained_variation >= kSunSplitExplained &&
                model.sun_irradiance_share >= kSunSplitShare && model.sun_disc_share >= kSunSplitDiscShare;
       };
+      // How much the daylight model fills this photo's map (DaylightFillWeight), from the map the pass starts from.
+      bool natural = natural_option;
+      double fill = 0;
+      NaturalLight model;
       if (natural) {
         for (int c = 0; c < 3; ++c) {
           const double lambda_c = options.smoothness * std::max(1e-30, diagonal[c].maxCoeff());
           for (int k = 0; k < dim; ++k)
             share[k] += diagonal[c][k] / (diagonal[c][k] + lambda_c * regularizer(k, k)) / 3.0;
         }
-        NaturalLight model = FitNaturalLight({exported[0].data(), exported[1].data(), exported[2].data()}, share, n);
+        model = FitNaturalLight({exported[0].data(), exported[1].data(), exported[2].data()}, share, n);
+        fill = DaylightFillWeight(model.explained_variation);
+        lighting->daylight_fill[i] = static_cast<float>(fill);
+        natural = fill > 0;
+      }
+      if (natural) {
         // A clear sky's sun (most of the model's light from the sun, most of that from its disc): the sun,
         // where the map's light concentrates, becomes its own variable.
         if (clear_sky(model)) {
@@ -400,7 +417,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
           for (int c = 0; c < 3; ++c) model.coefficients[c][3] = 0;
         }
         std::array<std::vector<double>, 3> m = model.Octahedral(n);
-        for (int c = 0; c < 3; ++c) model_map[c] = Eigen::Map<const Eigen::VectorXd>(m[c].data(), dim);
+        for (int c = 0; c < 3; ++c) model_map[c] = fill * Eigen::Map<const Eigen::VectorXd>(m[c].data(), dim);
       }
       if (!split_sun) {
         lighting->sun_irradiance[i].setZero();
@@ -444,7 +461,7 @@ LightingStepResult SolveLighting(const TransportStore& transport, const Observat
         const Eigen::VectorXd rhs_data_exact = rhs_exact;
         const double diagonal_max = std::max(1e-30, diagonal[c].maxCoeff());
         const double lambda = options.smoothness * diagonal_max;
-        const double model_pull = natural ? kNaturalLightPull * lambda : 0.0;
+        const double model_pull = natural ? fill * kNaturalLightPull * lambda : 0.0;
         if (natural) {
           Eigen::VectorXd prior_rhs = lambda * (regularizer * model_map[c]) + model_pull * model_map[c];
           if (sparsity_penalty.size() > 0)

@@ -31,6 +31,16 @@ namespace relight {
 // from the sun's disc, sharper than a texel, rather than from the aureole (sun_disc_share at least
 // kSunSplitDiscShare): a clear sky's sun, not a hazy one, a bright patch of cloud or light that is not daylight.
 inline constexpr double kSunSplitExplained = 0.85;
+// With the daylight prior, how much it fills each photo's map (SolveLighting): a weight that rises smoothly from 0 to 1
+// as the fitted daylight model explains from kDaylightFillExplainedFrom to kDaylightFillExplainedTo of the determined
+// part's variation (NaturalLight::explained_variation), read at the start of every pass. The priors act on the map's
+// departure from the model scaled by the weight, and the pull towards the model is scaled by it: at 1 the daylight
+// fill, at 0 the smooth fill, for light no sky model describes (walls, a courtyard), whose model would impose its sky,
+// sun and ground on what the photos see weakly as well as on what they do not see. A ramp, not a threshold: a map
+// near the boundary gets nearly the same fill from nearby starts (a warm-started fold and a solve from scratch).
+inline constexpr double kDaylightFillExplainedFrom = 0.3;
+inline constexpr double kDaylightFillExplainedTo = 0.7;
+double DaylightFillWeight(double explained_variation);
 inline constexpr double kSunSplitShare = 0.5;
 inline constexpr double kSunSplitDiscShare = 0.5;
 

@@ -49,6 +49,10 @@ struct LightingState {
   // it as its bilinear splat. Zero irradiance: no sun was split out of the photo's map.
   std::vector<Eigen::Vector3d> sun_dir_world;
   std::vector<Eigen::Vector3d> sun_irradiance;
+  // Per photo, with the daylight prior (inverse.light_prior natural): the weight of the daylight model in the last
+  // lighting pass's fill, 1 where the priors acted on the map's departure from the model, 0 where the model described
+  // too little of the map and the smooth fill filled it (solver/lighting.h, DaylightFillWeight). Empty without it.
+  std::vector<float> daylight_fill;
 
   void Resize(int num_photos);
   bool has_sun(size_t photo) const { return photo < sun_irradiance.size() && sun_irradiance[photo].maxCoeff() > 0; }

@@ -112,19 +112,33 @@ TEST_F(SolverTest, KnownReflectanceRecoversLighting) {
 // A sun far smaller than a texel (a delta, held as its splat) under a clear sky: with the stage's priors the
 // lighting step solves it as its own light, at its direction and with its irradiance, where the smoothness
 // prior would widen it over the texels around it.
-TEST_F(SolverTest, SunBelowATexelIsSolvedAsItsOwnLight) {
-  const std::vector<std::string> basis = {"lambertian", "phong:50"};
+// A synthetic problem over `basis` at the tests' map size.
+SyntheticProblemOptions SceneOptions(const std::vector<std::string>& basis) {
   SyntheticProblemOptions so;
   so.basis = basis;
   so.env_resolution = kEnv;
-  so.point_sun_irradiance = 6.0;
-  const SyntheticProblem s = MakeSyntheticProblem(so);
+  return so;
+}
+
+// The lighting alone (the reflectance known, every observation fitted) under the stage's lighting priors, in
+// `passes` passes of the lighting step.
+InverseOptions StagePriorsOnKnownReflectance(const std::vector<std::string>& basis, int passes) {
   InverseOptions o = BaseOptions(basis);
   o.fixed_reflectance = true;
   o.holdout_fraction = 0;
-  // Ten lighting steps, as an alternation makes them: each starts the sun from the last step's split.
-  o.irls_iterations = 10;
-  o.smoothness = InverseOptions().smoothness;  // the stage's prior, which spreads a sun left in the texels
+  o.irls_iterations = passes;
+  o.smoothness = InverseOptions().smoothness;
+  return o;
+}
+
+TEST_F(SolverTest, SunBelowATexelIsSolvedAsItsOwnLight) {
+  const std::vector<std::string> basis = {"lambertian", "phong:50"};
+  SyntheticProblemOptions so = SceneOptions(basis);
+  so.point_sun_irradiance = 6.0;
+  const SyntheticProblem s = MakeSyntheticProblem(so);
+  // Ten lighting passes, as an alternation makes them: each starts the sun from the last one's split. The stage's
+  // smoothness prior would spread a sun left in the texels.
+  const InverseOptions o = StagePriorsOnKnownReflectance(basis, 10);
   ASSERT_EQ(o.light_prior, "natural");
   const InverseResult r = SolveInverse(s.problem, o, &s.truth);
   const double texel_deg = std::sqrt(4 * M_PI) / kEnv * 180 / M_PI;
@@ -143,6 +157,32 @@ TEST_F(SolverTest, SunBelowATexelIsSolvedAsItsOwnLight) {
   }
   EXPECT_NEAR(mean_irradiance, 6.0, 0.6);
   EXPECT_LT(r.summary.iterations.back().train_rmse, 2e-3);
+}
+
+// The daylight prior (light_prior natural) fills only the maps its model describes: photos lit from a street between
+// walls (StreetLight, which the model cannot describe) get the smooth fill and come out as with light_prior smooth;
+// the skies keep the daylight model.
+TEST_F(SolverTest, DaylightPriorFillsOnlyTheMapsItDescribes) {
+  const std::vector<std::string> basis = {"lambertian", "phong:50"};
+  SyntheticProblemOptions so = SceneOptions(basis);
+  so.street_photos = 4;
+  const SyntheticProblem s = MakeSyntheticProblem(so);
+  // Several passes: the first starts from the initial uniform map, which the model describes.
+  InverseOptions o = StagePriorsOnKnownReflectance(basis, 4);
+  ASSERT_EQ(o.light_prior, "natural");
+  const InverseResult natural = SolveInverse(s.problem, o, &s.truth);
+  o.light_prior = "smooth";
+  const InverseResult smooth = SolveInverse(s.problem, o, &s.truth);
+  ASSERT_EQ(natural.lighting.daylight_fill.size(), static_cast<size_t>(so.photos));
+  std::vector<int> streets;
+  for (int i = 0; i < so.photos; ++i) {
+    if (i < so.street_photos) streets.push_back(i);
+    EXPECT_EQ(natural.lighting.daylight_fill[i], i < so.street_photos ? 0.0f : 1.0f) << "photo " << i;
+  }
+  const double street_natural = LightingRelativeError(s, natural.lighting, streets);
+  const double street_smooth = LightingRelativeError(s, smooth.lighting, streets);
+  std::printf("street maps' error: %.5f (natural), %.5f (smooth)\n", street_natural, street_smooth);
+  EXPECT_NEAR(street_natural, street_smooth, 1e-4 * street_smooth);
 }
 
 // Scale-invariant diffuse-albedo PSNR (dB) of every vertex, per channel after the best scale.

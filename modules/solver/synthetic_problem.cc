@@ -2,6 +2,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -156,11 +157,12 @@ SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
         Eigen::Vector3d(std::cos(sun_el) * std::cos(sun_az), std::cos(sun_el) * std::sin(sun_az), std::sin(sun_el)));
     std::vector<float> oct(size_t(env) * env * 3);
     for (int k = 0; k < env * env; ++k) {
+      const Eigen::Vector3d d = OctTexelDirection(k % env, k / env, env);
       const Eigen::Vector3d rgb =
-          SkyAndSun(OctTexelDirection(k % env, k / env, env), s.sun_dirs_world.back(), o.point_sun_irradiance <= 0);
+          i < o.street_photos ? StreetLight(d) : SkyAndSun(d, s.sun_dirs_world.back(), o.point_sun_irradiance <= 0);
       for (int c = 0; c < 3; ++c) oct[k * 3 + c] = static_cast<float>(rgb[c]);
     }
-    if (o.point_sun_irradiance > 0) {
+    if (o.point_sun_irradiance > 0 && i >= o.street_photos) {
       for (const auto& [k, v] : SunSplat(s.sun_dirs_world.back(), env))
         for (int c = 0; c < 3; ++c) oct[k * 3 + c] += static_cast<float>(o.point_sun_irradiance * v);
     }
@@ -232,9 +234,18 @@ SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& o) {
   return s;
 }
 
-double LightingRelativeError(const SyntheticProblem& s, const LightingState& l) {
+Eigen::Vector3d StreetLight(const Eigen::Vector3d& d) {
+  if (d.z() < -0.2) return Eigen::Vector3d(0.08, 0.07, 0.06);
+  if (d.z() > 0 && std::abs(d.y()) < 0.3) return Eigen::Vector3d(0.9, 0.95, 1.0);
+  const double azimuth = std::atan2(d.y(), d.x());
+  const bool sunlit = static_cast<int>(std::floor(azimuth / (M_PI / 4)) + 8) % 2 == 0;
+  return sunlit ? Eigen::Vector3d(0.7, 0.55, 0.4) : Eigen::Vector3d(0.06, 0.07, 0.09);
+}
+
+double LightingRelativeError(const SyntheticProblem& s, const LightingState& l, const std::vector<int>& photos) {
   double err = 0, norm = 0;
   for (size_t i = 0; i < s.truth.lighting_oct_rgb.size(); ++i) {
+    if (!photos.empty() && std::find(photos.begin(), photos.end(), static_cast<int>(i)) == photos.end()) continue;
     // The truth's grid; SH maps are evaluated on it (their `values` are coefficients).
     const int env = static_cast<int>(std::lround(std::sqrt(s.truth.lighting_oct_rgb[i].size() / 3.0)));
     const std::vector<float> estimate = l.OctahedralRgb(static_cast<int>(i), env);

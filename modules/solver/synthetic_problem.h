@@ -36,6 +36,9 @@ struct SyntheticProblemOptions {
   // > 0: each photo's sun is a delta of this irradiance (white, along the sun direction) instead of the 0.2 rad
   // wide lobe, held in the maps as its bilinear splat (solver/lighting.h, SunSplat): a sun below a texel in size.
   double point_sun_irradiance = 0;
+  // The first `street_photos` photos are lit from a street between walls, light no daylight model describes
+  // (StreetLight) instead of a sun and sky.
+  int street_photos = 0;
   bool interreflection = false;
   double ground_albedo = 0;
   int seed = 1;
@@ -49,7 +52,13 @@ struct SyntheticProblem {
 
 SyntheticProblem MakeSyntheticProblem(const SyntheticProblemOptions& options);
 
-// Relative L2 error over the upper hemisphere (z > 0.15) of recovered maps after the best per-channel scale.
-double LightingRelativeError(const SyntheticProblem& s, const LightingState& lighting);
+// Relative L2 error over the upper hemisphere (z > 0.15) of recovered maps after the best per-channel scale, over
+// the listed photos (empty: all).
+double LightingRelativeError(const SyntheticProblem& s, const LightingState& lighting,
+                             const std::vector<int>& photos = {});
+
+// The view up from a street running along +X: a strip of overcast sky overhead (|y| < 0.3), facades up to it
+// alternately sunlit and shaded every 45° of azimuth, a dark ground below −0.2.
+Eigen::Vector3d StreetLight(const Eigen::Vector3d& dir_world);
 
 }  // namespace relight
